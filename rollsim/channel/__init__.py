@@ -1,0 +1,1 @@
+"""Channel layer: analytic MMBP / Gilbert-Elliott models and the event simulator."""

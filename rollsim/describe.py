@@ -1,0 +1,107 @@
+"""A plain-text and JSON summary of a scene's timing, PHY-SDU and schedule."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rollsim.protocol import camcomsim_sdu_duration_s, last_payload_bits
+from rollsim.transmitter import transmitter_from_scene
+
+
+def _chip_string(chips) -> str:
+    return "".join("#" if c else "." for c in np.asarray(chips).ravel())
+
+
+def describe_scene(scene, emissions: int = 12) -> dict:
+    """Key figures of a scene, as a JSON-ready dict.
+
+    Parameters
+    ----------
+    scene : Scene
+    emissions : int
+        How many emissions of the schedule to list.
+    """
+    cam, link = scene.camera, scene.link
+    tx = transmitter_from_scene(scene)
+    phy = tx.phy
+    period_tx = np.arange(tx.schedule.emissions_per_round)
+    ones = tx.waveform.chips.ones_before(np.array([0, tx.schedule.emissions_per_round * phy.sdu_chips]))
+    return {
+        "name": scene.name,
+        "camera": {
+            "preset": cam.preset,
+            "width_px": cam.width_px,
+            "height_px": cam.height_px,
+            "frame_period_ms": cam.frame_period_s * 1e3,
+            "row_time_us": cam.row_time_s * 1e6,
+            "row_timing_from": "row_time_us" if cam.row_time_us is not None else "ifg_ratio",
+            "readout_ms": cam.readout_s * 1e3,
+            "ifg_ratio": cam.ifg_ratio_effective,
+            "exposure_us": cam.exposure_us,
+            "iso": cam.iso,
+            "gain_dn_per_e": cam.gain_dn_per_e_at_iso,
+        },
+        "phy": {
+            "line_code": phy.line_code,
+            "check": phy.check,
+            "header_bits": phy.header_bits,
+            "payload_bits": phy.payload_bits,
+            "check_bits": phy.check_bits,
+            "sync": _chip_string(phy.sync),
+            "sdu_chips": phy.sdu_chips,
+            "sdu_duration_ms": tx.sdu_duration_s * 1e3,
+            "camcomsim_sdu_duration_ms": camcomsim_sdu_duration_s(
+                phy.header_bits, phy.payload_bits, link.clock_hz, phy.line_code
+            )
+            * 1e3,
+            "rows_per_chip": 1.0 / (link.clock_hz * cam.row_time_s),
+            "sdus_per_frame_period": cam.frame_period_s / tx.sdu_duration_s,
+        },
+        "message": {
+            "bytes": link.message_bytes,
+            "packets": tx.n_packets,
+            "last_payload_bits": last_payload_bits(link.message_bytes, link.payload_bits),
+        },
+        "schedule": {
+            "strategy": link.strategy,
+            "repeats": link.repeats,
+            "emissions_per_round": tx.schedule.emissions_per_round,
+            "first_sequence_numbers": tx.schedule.sequence_numbers(np.arange(emissions)).tolist(),
+            "round_duration_ms": tx.schedule.emissions_per_round * tx.sdu_duration_s * 1e3,
+        },
+        "waveform": {
+            "pattern": link.pattern,
+            "clock_hz": link.clock_hz,
+            "start_offset_us": link.start_offset_us,
+            "first_sdu_chips": _chip_string(tx.waveform.chips.values(np.arange(phy.sdu_chips))),
+            "on_fraction": float(ones[1] - ones[0]) / max(1, len(period_tx) * phy.sdu_chips),
+        },
+        "effects": list(scene.effects.enabled()),
+    }
+
+
+def format_description(info: dict) -> str:
+    """Human-readable text of :func:`describe_scene`'s dict."""
+    cam, phy, msg, sch, wave = info["camera"], info["phy"], info["message"], info["schedule"], info["waveform"]
+    lines = [
+        f"scene      {info['name']}",
+        f"camera     {cam['preset'] or '(no preset)'}: {cam['width_px']}x{cam['height_px']} px, "
+        f"frame period {cam['frame_period_ms']:.4f} ms",
+        f"rows       row time {cam['row_time_us']:.4f} us (from {cam['row_timing_from']}), "
+        f"readout {cam['readout_ms']:.4f} ms, IFG ratio {cam['ifg_ratio']:.4f}",
+        f"exposure   {cam['exposure_us']:g} us at ISO {cam['iso']:g} (K = {cam['gain_dn_per_e']:.4g} DN/e-)",
+        f"PHY-SDU    SYNC {phy['sync']} + {phy['line_code']}(H={phy['header_bits']} | P={phy['payload_bits']} | "
+        f"{phy['check']}, {phy['check_bits']} bits) = {phy['sdu_chips']} chips = {phy['sdu_duration_ms']:.4f} ms",
+        f"           {phy['rows_per_chip']:.3f} rows per chip, {phy['sdus_per_frame_period']:.3f} PHY-SDUs per frame "
+        f"period; CamComSim's formula gives {phy['camcomsim_sdu_duration_ms']:.4f} ms",
+        f"message    {msg['bytes']} bytes -> {msg['packets']} packets "
+        f"(last payload holds {msg['last_payload_bits']} real bits)",
+        f"schedule   {sch['strategy'].upper()} r={sch['repeats']}: round of {sch['emissions_per_round']} emissions "
+        f"= {sch['round_duration_ms']:.4g} ms; seq of tx 0..{len(sch['first_sequence_numbers']) - 1}: "
+        + " ".join(map(str, sch["first_sequence_numbers"])),
+        f"waveform   pattern {wave['pattern']} at {wave['clock_hz']:g} Hz from {wave['start_offset_us']:g} us, "
+        f"ON fraction {wave['on_fraction']:.4f}",
+        f"           chips of tx 0: {wave['first_sdu_chips']}",
+        f"effects    {', '.join(info['effects']) or '(none)'}",
+    ]
+    return "\n".join(lines)

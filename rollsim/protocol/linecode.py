@@ -1,0 +1,143 @@
+"""Line codes: bits to LED chips (1 = ON, 0 = OFF) and back.
+
+manchester
+    IEEE 802.3 polarity: bit 1 is sent as chips ``0 1`` (OFF then ON, a rising
+    edge mid-bit), bit 0 as ``1 0``. Two chips per bit, DC-balanced, runs of
+    one or two equal chips only. A pair of equal chips cannot come from any
+    bit, so it decodes as an error, never as a guess.
+
+4b6b
+    Each 4-bit group (MSB first) is sent as a 6-chip codeword with exactly
+    three ON chips (the table of IEEE 802.15.7 VLC PHY II), so every
+    codeword is DC-balanced. Runs are at most 4 chips long across codeword
+    boundaries. Data whose length is not a multiple of 4 is padded with zero
+    bits; the pad is stripped on decoding. The 48 six-chip patterns that are
+    not codewords decode as errors.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+LINE_CODES = ("manchester", "4b6b")
+
+# Data nibble (value 0..15, MSB first) -> 6-chip codeword.
+FOUR_B_SIX_B_TABLE = (
+    "001110", "001101", "010011", "010110",
+    "010101", "100011", "100110", "100101",
+    "011001", "011010", "011100", "110001",
+    "110010", "101001", "101010", "101100",
+)
+
+_4B6B_CHIPS = np.array([[int(c) for c in word] for word in FOUR_B_SIX_B_TABLE], dtype=np.uint8)
+_6B_WEIGHTS = 1 << np.arange(5, -1, -1)
+_4B_WEIGHTS = 1 << np.arange(3, -1, -1)
+_6B_TO_NIBBLE = np.full(64, -1, dtype=np.int16)
+_6B_TO_NIBBLE[_4B6B_CHIPS @ _6B_WEIGHTS] = np.arange(16)
+_NIBBLE_BITS = ((np.arange(16)[:, None] >> np.arange(3, -1, -1)) & 1).astype(np.uint8)
+
+
+def _check_code(code: str) -> None:
+    if code not in LINE_CODES:
+        raise ValueError(f"unknown line code {code!r}; expected one of {list(LINE_CODES)}")
+
+
+def _as_rows(bits) -> np.ndarray:
+    arr = np.asarray(bits, dtype=np.uint8)
+    return arr[np.newaxis, :] if arr.ndim == 1 else arr
+
+
+def padded_bits(n_bits: int, code: str) -> int:
+    """Number of bits after padding for ``code`` (a multiple of 4 for 4B6B)."""
+    _check_code(code)
+    return n_bits if code == "manchester" else -(-n_bits // 4) * 4
+
+
+def coded_chips(n_bits: int, code: str) -> int:
+    """Number of chips that ``n_bits`` data bits take in line code ``code``."""
+    n = padded_bits(n_bits, code)
+    return 2 * n if code == "manchester" else 6 * (n // 4)
+
+
+def chips_per_symbol(code: str) -> tuple[int, int]:
+    """``(chips, bits)`` of one code symbol: (2, 1) Manchester, (6, 4) 4B6B."""
+    _check_code(code)
+    return (2, 1) if code == "manchester" else (6, 4)
+
+
+def max_run_length(code: str) -> int:
+    """Longest run of equal chips that back-to-back coded data can contain."""
+    _check_code(code)
+    if code == "manchester":
+        return 2
+    words = ["".join(map(str, w)) for w in _4B6B_CHIPS]
+    # A run can span at most two codewords, since no codeword is constant.
+    longest = 0
+    for a in words:
+        for b in words:
+            s = a + b
+            run = 1
+            for x, y in zip(s, s[1:]):
+                run = run + 1 if x == y else 1
+                longest = max(longest, run)
+    return longest
+
+
+def encode(bits, code: str) -> np.ndarray:
+    """Line-code each row of ``bits``.
+
+    Parameters
+    ----------
+    bits : array_like of {0, 1}, shape (n_packets, n_bits) or (n_bits,)
+    code : {"manchester", "4b6b"}
+
+    Returns
+    -------
+    ndarray of uint8, shape (n_packets, coded_chips(n_bits, code))
+    """
+    _check_code(code)
+    rows = _as_rows(bits)
+    if code == "manchester":
+        chips = np.empty((rows.shape[0], 2 * rows.shape[1]), dtype=np.uint8)
+        chips[:, 0::2] = 1 - rows
+        chips[:, 1::2] = rows
+        return chips
+    n_pad = padded_bits(rows.shape[1], code) - rows.shape[1]
+    if n_pad:
+        rows = np.concatenate([rows, np.zeros((rows.shape[0], n_pad), np.uint8)], axis=1)
+    nibbles = rows.reshape(rows.shape[0], -1, 4) @ _4B_WEIGHTS
+    return _4B6B_CHIPS[nibbles].reshape(rows.shape[0], -1)
+
+
+def decode(chips, code: str, n_bits: int) -> tuple[np.ndarray, np.ndarray]:
+    """Decode each row of ``chips`` back to ``n_bits`` bits.
+
+    Parameters
+    ----------
+    chips : array_like of {0, 1}, shape (n_packets, coded_chips(n_bits, code))
+    code : {"manchester", "4b6b"}
+    n_bits : int
+        Number of data bits before padding.
+
+    Returns
+    -------
+    bits : ndarray of uint8, shape (n_packets, n_bits)
+        Decoded bits; 0 where the symbol was invalid.
+    valid : ndarray of bool, shape (n_packets,)
+        False where any symbol was not a valid code symbol (an equal
+        Manchester pair, a non-codeword 4B6B pattern).
+    """
+    _check_code(code)
+    rows = _as_rows(chips)
+    expected = coded_chips(n_bits, code)
+    if rows.shape[1] != expected:
+        raise ValueError(f"expected {expected} chips for {n_bits} bits in {code}, got {rows.shape[1]}")
+    if code == "manchester":
+        first, second = rows[:, 0::2], rows[:, 1::2]
+        valid = np.all(first != second, axis=1)
+        return np.where(first != second, second, 0).astype(np.uint8), valid
+    index = rows.reshape(rows.shape[0], -1, 6) @ _6B_WEIGHTS
+    nibbles = _6B_TO_NIBBLE[index]
+    valid = np.all(nibbles >= 0, axis=1)
+    bits = _NIBBLE_BITS[np.maximum(nibbles, 0)].reshape(rows.shape[0], -1)
+    return bits[:, :n_bits], valid

@@ -1,0 +1,35 @@
+"""The scenes bundled with rollsim (the ``scenes/`` folder)."""
+
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+from typing import Union
+
+
+def bundled_scene_dir() -> Path:
+    """Folder of the bundled scene files."""
+    return Path(str(resources.files("rollsim.bundled_scenes")))
+
+
+def bundled_scene_paths() -> list[Path]:
+    """Bundled scene files, sorted by name."""
+    return sorted(bundled_scene_dir().glob("*.yaml"))
+
+
+def resolve_scene_path(path: Union[str, Path]) -> Path:
+    """A scene file path, or the path of the bundled scene of that name.
+
+    An existing file wins; otherwise ``NAME`` or ``NAME.yaml`` is looked up
+    among the bundled scenes. A path that matches neither is returned as is,
+    so that reading it reports it as not found.
+    """
+    candidate = Path(path)
+    if candidate.exists():
+        return candidate
+    name = candidate.name[:-5] if candidate.name.endswith(".yaml") else candidate.name
+    if candidate.parent == Path("."):
+        bundled = bundled_scene_dir() / f"{name}.yaml"
+        if bundled.exists():
+            return bundled
+    return candidate

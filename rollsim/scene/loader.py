@@ -1,0 +1,411 @@
+"""Load scenes: YAML, presets and ``--set`` overrides, into a validated Scene.
+
+Layers, least specific first: camera preset < scene file < ``--set``. Each
+layer overrides keys one by one. Row timing is one choice: whichever of
+``camera.row_time_us`` / ``camera.ifg_ratio`` a more specific layer gives
+replaces the other from the less specific layers; giving both in the same
+layer is an error.
+
+Every problem becomes one line naming the file, the field, the value and what
+is allowed, collected into a :class:`rollsim.errors.SceneError`.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import re
+from pathlib import Path
+from typing import Iterable, Mapping, Optional, Union, get_args
+
+import annotated_types
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from rollsim.errors import SceneError
+from rollsim.protocol import CRC8_MAX_DATA_BITS, min_header_bits, n_packets
+from rollsim.scene.effects import normalise_effects
+from rollsim.scene.model import Scene
+from rollsim.scene.presets import DEFAULT_PRESET, PRESETS
+
+ROW_TIMING_KEYS = ("row_time_us", "ifg_ratio")
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """Safe YAML loader that rejects duplicate keys instead of keeping the last."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark
+            )
+        seen.add(key)
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+# PyYAML follows YAML 1.1, where "1e-3" (no dot) is a string. Scenes and
+# --set values use exponents freely, so floats follow YAML 1.2 here.
+_YAML12_FLOAT = re.compile(
+    r"^(?=[-+]?\.?[0-9])[-+]?(?:[0-9][0-9_]*)?(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?$"
+    r"|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$"
+)
+_UniqueKeyLoader.yaml_implicit_resolvers = {
+    key: [(tag, regexp) for tag, regexp in resolvers if tag != "tag:yaml.org,2002:float"]
+    for key, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
+
+
+def _load_yaml_text(text: str):
+    return yaml.load(text, Loader=_UniqueKeyLoader)
+
+
+def read_yaml(path: Union[str, Path]) -> dict:
+    """Read a scene file into a dict, with one-line errors naming the file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file not found") from None
+    except IsADirectoryError:
+        raise SceneError(f"{path}: is a directory, not a scene file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(f"{path}: cannot read scene file ({exc.__class__.__name__}: {exc})") from None
+    try:
+        data = _load_yaml_text(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise SceneError(f"{path}: {where}YAML error: {problem}") from None
+    if data is None:
+        raise SceneError(f"{path}: scene file is empty")
+    if not isinstance(data, dict):
+        raise SceneError(f"{path}: a scene file must be a mapping of keys, got {type(data).__name__}")
+    return data
+
+
+def parse_overrides(overrides: Iterable[str]) -> dict:
+    """Turn ``["camera.exposure_us=50", ...]`` into a nested dict.
+
+    Values are parsed as YAML scalars or flow collections, so ``50``,
+    ``null``, ``true`` and ``[1, 2]`` keep their types.
+    """
+    tree: dict = {}
+    for item in overrides:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key or any(not part for part in key.split(".")):
+            raise SceneError(f"--set {item!r}: expected KEY=VALUE, e.g. camera.exposure_us=50")
+        try:
+            value = _load_yaml_text(text) if text.strip() else None
+        except (yaml.YAMLError, ValueError):
+            raise SceneError(f"--set {item!r}: cannot parse the value {text!r}") from None
+        node = tree
+        parts = key.split(".")
+        for depth, part in enumerate(parts[:-1]):
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                raise SceneError(f"--set {item!r}: {'.'.join(parts[: depth + 1])} is set to a value, not a section")
+        node[parts[-1]] = value
+    return tree
+
+
+def _merge(base: dict, layer: Mapping) -> dict:
+    """Deep-merge ``layer`` over ``base`` (a new dict; mappings merge, values replace)."""
+    out = copy.deepcopy(base)
+    for key, value in layer.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), dict):
+            out[key] = _merge(out[key], value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def _check_row_timing_layer(camera: Mapping, layer_name: str) -> list[str]:
+    if all(camera.get(key) is not None for key in ROW_TIMING_KEYS):
+        return [f"{layer_name}: camera.row_time_us and camera.ifg_ratio are both given; give one (the other follows)"]
+    return []
+
+
+def _merge_camera(layers: list[tuple[str, Mapping]]) -> tuple[dict, list[str]]:
+    camera: dict = {}
+    errors: list[str] = []
+    for layer_name, layer in layers:
+        if not isinstance(layer, Mapping):
+            errors.append(f"{layer_name}: camera must be a mapping of keys, got {type(layer).__name__}")
+            continue
+        errors += _check_row_timing_layer(layer, layer_name)
+        if any(layer.get(key) is not None for key in ROW_TIMING_KEYS):
+            for key in ROW_TIMING_KEYS:
+                camera.pop(key, None)
+        camera = _merge(camera, layer)
+    return camera, errors
+
+
+def resolve_layers(file_data: Mapping, overrides: Mapping, source: str) -> tuple[dict, list[str]]:
+    """Merge preset, scene file and overrides into one plain dict.
+
+    Returns the merged dict and the list of layering errors found.
+    """
+    errors: list[str] = []
+    file_camera = file_data.get("camera") or {}
+    set_camera = overrides.get("camera") or {}
+    preset_name = DEFAULT_PRESET
+    for layer in (file_camera, set_camera):
+        if isinstance(layer, Mapping) and "preset" in layer:
+            preset_name = layer["preset"]
+    layers = []
+    if preset_name is not None:
+        if preset_name not in PRESETS:
+            close = difflib.get_close_matches(str(preset_name), PRESETS, n=1, cutoff=0.0)
+            errors.append(
+                f"{source}: camera.preset = {preset_name!r}: unknown preset; did you mean {close[0]!r}? "
+                f"(presets: {', '.join(PRESETS)})"
+            )
+        else:
+            layers.append((f"preset {preset_name}", PRESETS[preset_name].as_dict()))
+    layers += [(source, file_camera), ("--set", set_camera)]
+    camera, camera_errors = _merge_camera(layers)
+    errors += camera_errors
+    if preset_name is not None:
+        camera["preset"] = preset_name
+
+    data = _merge(dict(file_data), {k: v for k, v in overrides.items() if k not in ("camera", "effects")})
+    data["camera"] = camera
+    effects = normalise_effects(file_data.get("effects"))
+    if "effects" in overrides:
+        set_effects = overrides["effects"]
+        if isinstance(set_effects, Mapping):
+            for name, params in set_effects.items():
+                if params is False:
+                    effects.pop(name, None)
+                elif isinstance(params, Mapping) and isinstance(effects.get(name), dict):
+                    effects[name] = _merge(effects[name], params)
+                else:
+                    effects[name] = {} if params is None or params is True else params
+        else:
+            effects = normalise_effects(set_effects)
+    data["effects"] = effects
+    return data, errors
+
+
+# ---------------------------------------------------------------- error lines
+
+
+def _unwrap_model(annotation) -> Optional[type]:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in get_args(annotation):
+        found = _unwrap_model(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _model_at(loc: tuple) -> Optional[type]:
+    """The pydantic model class that holds the field at ``loc``'s parent."""
+    model = Scene
+    for part in loc[:-1]:
+        field = model.model_fields.get(part) if isinstance(part, str) else None
+        if field is None:
+            return None
+        model = _unwrap_model(field.annotation)
+        if model is None:
+            return None
+    return model
+
+
+def _fmt_number(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _range_text(loc: tuple) -> str:
+    model = _model_at(loc)
+    if model is None or loc[-1] not in model.model_fields:
+        return ""
+    low, high, low_open, high_open = "-inf", "inf", True, True
+    for item in model.model_fields[loc[-1]].metadata:
+        if isinstance(item, annotated_types.Gt):
+            low, low_open = _fmt_number(item.gt), True
+        elif isinstance(item, annotated_types.Ge):
+            low, low_open = _fmt_number(item.ge), False
+        elif isinstance(item, annotated_types.Lt):
+            high, high_open = _fmt_number(item.lt), True
+        elif isinstance(item, annotated_types.Le):
+            high, high_open = _fmt_number(item.le), False
+    return f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}"
+
+
+def _format_value(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+_TYPE_WORDS = {
+    "int_type": "an integer",
+    "int_from_float": "an integer",
+    "int_parsing": "an integer",
+    "float_type": "a number",
+    "float_parsing": "a number",
+    "string_type": "a string",
+    "list_type": "a list",
+    "bool_type": "true or false",
+}
+
+
+def _error_line(error: dict, source: str) -> str:
+    loc = tuple(error["loc"])
+    path = ".".join(str(part) for part in loc)
+    kind = error["type"]
+    value = error.get("input")
+    if kind == "extra_forbidden":
+        model = _model_at(loc)
+        valid = list(model.model_fields) if model is not None else []
+        close = difflib.get_close_matches(str(loc[-1]), valid, n=1, cutoff=0.0)
+        hint = f"; did you mean {'.'.join(str(p) for p in loc[:-1] + (close[0],))!r}?" if close else ""
+        return f"{source}: {path}: unknown key{hint}"
+    if kind == "missing":
+        return f"{source}: {path}: required key is missing"
+    if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
+        return f"{source}: {path} = {_format_value(value)}: out of range, allowed {_range_text(loc)}"
+    if kind == "literal_error":
+        expected = error.get("ctx", {}).get("expected", "")
+        return f"{source}: {path} = {_format_value(value)}: must be one of {expected}"
+    if kind in ("too_short", "too_long"):
+        return f"{source}: {path} = {_format_value(value)}: {error['msg'].lower()}"
+    if kind in _TYPE_WORDS:
+        return f"{source}: {path} = {_format_value(value)}: must be {_TYPE_WORDS[kind]}"
+    if kind == "model_type":
+        return f"{source}: {path}: must be a mapping of keys, got {type(value).__name__}"
+    return f"{source}: {path} = {_format_value(value)}: {error['msg']}"
+
+
+# ------------------------------------------------------- cross-field checks
+
+
+def consistency_errors(scene: Scene, source: str) -> list[str]:
+    """Errors between fields that are each valid on their own."""
+    cam, link, errors = scene.camera, scene.link, []
+    if cam.row_time_us is None and cam.ifg_ratio is None:
+        errors.append(f"{source}: camera: give row_time_us or ifg_ratio")
+    elif cam.readout_s > cam.frame_period_s * (1 + 1e-12):
+        errors.append(
+            f"{source}: camera.row_time_us = {_fmt_number(cam.row_time_us)}: {cam.height_px} rows take "
+            f"{cam.readout_s * 1e3:.4g} ms, longer than the frame period {cam.frame_period_s * 1e3:.4g} ms "
+            f"(frame_rate_hz = {_fmt_number(cam.frame_rate_hz)})"
+        )
+    if cam.exposure_s > cam.frame_period_s * (1 + 1e-12):
+        errors.append(
+            f"{source}: camera.exposure_us = {_fmt_number(cam.exposure_us)}: longer than the frame period "
+            f"{cam.frame_period_s * 1e6:.6g} us"
+        )
+    if cam.black_level_dn >= 2**cam.adc_bits - 1:
+        errors.append(
+            f"{source}: camera.black_level_dn = {cam.black_level_dn}: must be below the ADC maximum "
+            f"{2 ** cam.adc_bits - 1} (adc_bits = {cam.adc_bits})"
+        )
+    if link.distance_cm * 10.0 <= cam.focal_length_mm:
+        errors.append(
+            f"{source}: link.distance_cm = {_fmt_number(link.distance_cm)}: the LED must be farther than the "
+            f"focal length ({_fmt_number(cam.focal_length_mm)} mm), where the thin lens diverges"
+        )
+    packets = n_packets(link.message_bytes, link.payload_bits)
+    if packets > 2**link.header_bits:
+        errors.append(
+            f"{source}: link.header_bits = {link.header_bits}: too few for {packets} packets "
+            f"(message_bytes = {link.message_bytes}, payload_bits = {link.payload_bits}); "
+            f"need at least {min_header_bits(packets)}"
+        )
+    if link.check == "crc8" and link.header_bits + link.payload_bits > CRC8_MAX_DATA_BITS:
+        errors.append(
+            f"{source}: link.payload_bits = {link.payload_bits}: header_bits + payload_bits = "
+            f"{link.header_bits + link.payload_bits} exceeds {CRC8_MAX_DATA_BITS}, the longest data for which "
+            f"crc8 detects every double error"
+        )
+    channel = scene.channel
+    if (channel.M is None) != (channel.N is None):
+        errors.append(f"{source}: channel: give both M and N, or neither (null derives both from the physics)")
+    elif channel.M is not None and channel.M + channel.N < 1:
+        errors.append(f"{source}: channel: M + N must be at least 1")
+    if cam.output == "rgb8" and scene.effects.bayer is None:
+        errors.append(f"{source}: camera.output = 'rgb8': needs the bayer effect")
+    return errors
+
+
+# ------------------------------------------------------------------ entry points
+
+
+def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[str] = ()) -> Scene:
+    """Validate a scene given as a dict (as read from YAML).
+
+    Parameters
+    ----------
+    data : mapping
+        Scene keys as in the scene file.
+    source : str
+        Name used in error lines (usually the file path).
+    overrides : iterable of str
+        ``KEY=VALUE`` overrides, as ``--set`` takes them.
+
+    Raises
+    ------
+    SceneError
+        With one line per problem.
+    """
+    if not isinstance(data, Mapping):
+        raise SceneError(f"{source}: a scene must be a mapping of keys, got {type(data).__name__}")
+    merged, errors = resolve_layers(data, parse_overrides(overrides), source)
+    if errors:
+        raise SceneError(errors)
+    try:
+        scene = Scene.model_validate(merged)
+    except ValidationError as exc:
+        raise SceneError([_error_line(err, source) for err in exc.errors()]) from None
+    errors = consistency_errors(scene, source)
+    if errors:
+        raise SceneError(errors)
+    return scene
+
+
+def load_scene(path: Union[str, Path], overrides: Iterable[str] = ()) -> Scene:
+    """Load and validate a scene file, or a bundled scene by name.
+
+    Parameters
+    ----------
+    path : str or Path
+        A YAML file, or the name of a bundled scene (see ``rollsim scenes``).
+    overrides : iterable of str
+        ``KEY=VALUE`` overrides, e.g. ``["camera.exposure_us=50"]``.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    SceneError
+        With one line per problem, each naming the file and field.
+    """
+    from rollsim.scene.bundled import resolve_scene_path
+
+    resolved = resolve_scene_path(path)
+    return scene_from_dict(read_yaml(resolved), str(path), overrides)
+
+
+def scene_to_dict(scene: Scene) -> dict:
+    """Plain dict of every resolved value, loadable again with :func:`scene_from_dict`."""
+    data = scene.model_dump(mode="json")
+    data["effects"] = {name: data["effects"][name] for name in scene.effects.enabled()}
+    return data
+
+
+def scene_to_yaml(scene: Scene) -> str:
+    """YAML text of :func:`scene_to_dict`."""
+    return yaml.safe_dump(scene_to_dict(scene), sort_keys=False)

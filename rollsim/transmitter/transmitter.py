@@ -1,0 +1,166 @@
+"""The transmitter of a scene: message, PHY-SDUs, schedule and waveform.
+
+It also maps times back to what was being sent (chip, tx index, sequence
+number, bit), which is the basis of the render's ground truth.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rollsim.protocol import PhyFormat, packetize
+from rollsim.transmitter.chips import ConstantChips, DataChips, SquareChips
+from rollsim.transmitter.message import message_from_seed
+from rollsim.transmitter.schedule import Schedule
+from rollsim.transmitter.waveform import Waveform
+
+PATTERNS = ("data", "square", "on", "off")
+
+
+@dataclass(frozen=True)
+class Transmitter:
+    """Everything the LED sends.
+
+    Attributes
+    ----------
+    phy : PhyFormat
+        PHY-SDU layout.
+    message : bytes
+    payloads : ndarray of uint8, shape (n_packets, payload_bits)
+    sdu_chips : ndarray of uint8, shape (n_packets, phy.sdu_chips)
+        Chips of the PHY-SDU with sequence number k in row k.
+    schedule : Schedule
+    pattern : {"data", "square", "on", "off"}
+    waveform : Waveform
+        s(t) and S(t).
+    """
+
+    phy: PhyFormat
+    message: bytes
+    payloads: np.ndarray
+    sdu_chips: np.ndarray
+    schedule: Schedule
+    pattern: str
+    waveform: Waveform
+
+    @property
+    def n_packets(self) -> int:
+        return self.schedule.n_packets
+
+    @property
+    def sdu_duration_s(self) -> float:
+        return self.phy.sdu_duration_s(self.waveform.clock_hz)
+
+    @property
+    def sends_data(self) -> bool:
+        """Whether the LED sends PHY-SDUs (pattern ``data``)."""
+        return self.pattern == "data"
+
+    def emission_start_s(self, tx) -> np.ndarray:
+        """Start time in seconds of each emission (tx index)."""
+        return self.waveform.start_s + np.asarray(tx, dtype=np.int64) * self.sdu_duration_s
+
+    def emissions_between(self, t_start_s: float, t_end_s: float) -> np.ndarray:
+        """tx indices of every PHY-SDU that overlaps [t_start, t_end)."""
+        if not self.sends_data:
+            return np.zeros(0, dtype=np.int64)
+        first = int(np.floor((t_start_s - self.waveform.start_s) / self.sdu_duration_s))
+        last = int(np.ceil((t_end_s - self.waveform.start_s) / self.sdu_duration_s)) - 1
+        return np.arange(first, max(first, last) + 1, dtype=np.int64)
+
+    def codeword_bits(self, tx) -> np.ndarray:
+        """Header, payload and check bits of each emission, one row per tx."""
+        seq = self.schedule.sequence_numbers(tx)
+        return self.phy.codewords(seq, self.payloads[seq])
+
+    def locate(self, t_s) -> dict[str, np.ndarray]:
+        """What was being sent at times ``t_s``.
+
+        Returns
+        -------
+        dict of ndarray
+            ``chip`` (chip index), ``level`` (1 ON / 0 OFF) and, for the
+            ``data`` pattern, ``tx`` (tx index), ``sequence``, ``chip_in_sdu``
+            and ``bit`` (codeword bit index, -1 in the SYNC; see
+            :meth:`PhyFormat.bit_index_of_chip`). For other patterns these
+            three are -1.
+        """
+        chip = self.waveform.chip_index(t_s)
+        out = {"chip": chip, "level": self.waveform.chips.values(chip)}
+        if self.sends_data:
+            tx, offset = self.waveform.chips.split(chip)
+            out.update(
+                tx=tx,
+                sequence=self.schedule.sequence_numbers(tx),
+                chip_in_sdu=offset,
+                bit=self.phy.bit_index_of_chip(offset),
+            )
+        else:
+            minus_one = np.full(np.shape(chip), -1, dtype=np.int64)
+            out.update(tx=minus_one, sequence=minus_one, chip_in_sdu=minus_one, bit=minus_one)
+        return out
+
+
+def build_transmitter(
+    phy: PhyFormat,
+    message: bytes,
+    strategy: str = "rp",
+    repeats: int = 1,
+    pattern: str = "data",
+    clock_hz: float = 8000.0,
+    start_s: float = 0.0,
+    off_level: float = 0.0,
+) -> Transmitter:
+    """Assemble a transmitter from its parts.
+
+    Parameters
+    ----------
+    phy : PhyFormat
+    message : bytes
+    strategy : {"rp", "rs"}
+    repeats : int
+        r of the strategy.
+    pattern : {"data", "square", "on", "off"}
+        ``data`` sends the strategy's PHY-SDUs; ``square`` a chip-rate square
+        wave (row-time calibration); ``on`` / ``off`` a constant level (flat
+        fields).
+    clock_hz : float
+        Chip rate in Hz.
+    start_s : float
+        Time at which chip 0 (the first chip of tx 0) starts.
+    off_level : float
+        OFF intensity as a fraction of ON.
+    """
+    if pattern not in PATTERNS:
+        raise ValueError(f"unknown pattern {pattern!r}; expected one of {list(PATTERNS)}")
+    payloads = packetize(message, phy.payload_bits)
+    if len(payloads) > (1 << phy.header_bits):
+        raise ValueError(f"{len(payloads)} packets need more than {phy.header_bits} header bits")
+    schedule = Schedule(strategy, len(payloads), repeats)
+    sdu_chips = phy.encode(np.arange(len(payloads)), payloads)
+    chips = {
+        "data": lambda: DataChips(schedule, sdu_chips),
+        "square": SquareChips,
+        "on": lambda: ConstantChips(1),
+        "off": lambda: ConstantChips(0),
+    }[pattern]()
+    waveform = Waveform(chips, clock_hz, start_s, 1.0, off_level)
+    return Transmitter(phy, message, payloads, sdu_chips, schedule, pattern, waveform)
+
+
+def transmitter_from_scene(scene) -> Transmitter:
+    """The transmitter a validated :class:`rollsim.scene.Scene` describes."""
+    link = scene.link
+    phy = PhyFormat(link.header_bits, link.payload_bits, link.check, link.line_code)
+    return build_transmitter(
+        phy,
+        message_from_seed(scene.seed, link.message_bytes),
+        strategy=link.strategy,
+        repeats=link.repeats,
+        pattern=link.pattern,
+        clock_hz=link.clock_hz,
+        start_s=link.start_offset_us * 1e-6,
+        off_level=scene.led.off_level,
+    )
