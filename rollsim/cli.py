@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Optional, Sequence
 
 from rollsim import __version__
@@ -58,11 +59,35 @@ def cmd_validate(args) -> int:
 def cmd_describe(args) -> int:
     """Print a scene's timing, PHY-SDU, schedule and waveform summary."""
     from rollsim.describe import describe_scene, format_description
-    from rollsim.scene import load_scene
 
-    scene = load_scene(args.scene, args.overrides)
+    scene = _load_scene_args(args)
     info = describe_scene(scene, emissions=args.emissions)
     print(json.dumps(info, indent=2) if args.json else format_description(info))
+    return EXIT_OK
+
+
+def _load_scene_args(args):
+    from rollsim.scene import load_scene
+
+    overrides = list(args.overrides)
+    if getattr(args, "seed", None) is not None:
+        overrides.append(f"seed={args.seed}")
+    return load_scene(args.scene, overrides)
+
+
+def cmd_render(args) -> int:
+    """Render a scene to PNG frames, truth.jsonl and scene.resolved.yaml."""
+    from tqdm import tqdm
+
+    from rollsim.render.writer import render_to_dir
+
+    scene = _load_scene_args(args)
+    n_frames = args.frames if args.frames is not None else scene.frames
+    with tqdm(total=n_frames, unit="frame", desc="render", disable=args.quiet or None) as bar:
+        summary = render_to_dir(
+            scene, Path(args.out), n_frames, force=args.force, workers=args.workers, progress=lambda n: bar.update(1)
+        )
+    print(f"wrote {summary.frames} frames of {scene.name} to {summary.out_dir} ({summary.workers} workers)")
     return EXIT_OK
 
 
@@ -90,7 +115,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--emissions", type=int, default=12, help="emissions of the schedule to list (default 12)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(func=cmd_describe)
+
+    p = sub.add_parser("render", help="render a scene to PNG frames with ground truth")
+    p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (must be empty, or use --force)")
+    p.add_argument("--frames", type=_positive_int, default=None, help="frame count (default: the scene's frames)")
+    p.add_argument("--seed", type=int, default=None, help="override the scene seed")
+    p.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_set_option(p)
+    p.set_defaults(func=cmd_render)
     return parser
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

@@ -13,7 +13,7 @@ from rollsim.scene.loader import (
     scene_to_dict,
     scene_to_yaml,
 )
-from rollsim.scene.model import Camera, Channel, Environment, Led, Link, Scene
+from rollsim.scene.model import Camera, Channel, Environment, Led, Link, Render, Scene
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS, CameraPreset
 
 __all__ = [
@@ -27,6 +27,7 @@ __all__ = [
     "Led",
     "Link",
     "PRESETS",
+    "Render",
     "Scene",
     "bundled_scene_dir",
     "bundled_scene_paths",

@@ -32,6 +32,7 @@ class Camera(_Section):
     pixel_pitch_um: float = Field(gt=0, le=100)
     focal_length_mm: float = Field(gt=0, le=2000)
     f_number: float = Field(ge=0.5, le=64)
+    lens_transmission: float = Field(0.9, gt=0, le=1)
     qe: float = Field(gt=0, le=1)
     full_well_e: float = Field(gt=0, le=1e7)
     read_noise_e: float = Field(ge=0, le=1e4)
@@ -84,6 +85,7 @@ class Led(_Section):
     luminous_intensity_cd: float = Field(2.0, ge=0, le=1e7)
     peak_wavelength_nm: float = Field(630.0, ge=360, le=830)
     off_level: float = Field(0.0, ge=0, le=1)
+    face_reflectance: float = Field(0.2, ge=0, le=1)
     position_px: Optional[list[float]] = Field(None, min_length=2, max_length=2)
 
 
@@ -116,6 +118,7 @@ class Environment(_Section):
 
     ambient_lux: float = Field(650.0, ge=0, le=1e7)
     background_reflectance: float = Field(0.5, ge=0, le=1)
+    ambient_illuminant: Literal["FL2", "FL11", "D65", "A"] = "FL2"
 
 
 class Channel(_Section):
@@ -125,6 +128,12 @@ class Channel(_Section):
     M: Optional[int] = Field(None, ge=0, le=10**7)
     N: Optional[int] = Field(None, ge=0, le=10**7)
     frame_jitter_us: float = Field(0.0, ge=0, le=1e7)
+
+
+class Render(_Section):
+    """Fidelity settings of the core render (effects carry their own)."""
+
+    footprint_edge: Literal["exact", "supersample1", "supersample4", "supersample16"] = "exact"
 
 
 class Scene(_Section):
@@ -139,4 +148,5 @@ class Scene(_Section):
     link: Link = Link()
     environment: Environment = Environment()
     channel: Channel = Channel()
+    render: Render = Render()
     effects: Effects = Effects()

@@ -37,6 +37,7 @@ _SENSOR = {
     "black_level_dn": (64, "assumed: the usual 10-bit black level (ISETCam IMX363 model)"),
     "base_iso": (100, "assumed: unity analogue gain at ISO 100"),
     "gain_dn_per_e": (0.22, "assumed: (2^10 - 1 - 64) DN / 4500 e-, the full well fills the ADC at base ISO"),
+    "lens_transmission": (0.9, "assumed: typical transmission of a multi-element phone lens"),
     "output": ("gray8", "default output format"),
 }
 

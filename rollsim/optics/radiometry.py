@@ -1,0 +1,100 @@
+"""Radiometry: from candela and lux to photons per second per pixel.
+
+Sensor-plane illuminance of a Lambertian surface of luminance L seen through
+a lens of f-number N, transmission T, at magnification m (the camera
+equation, on axis):
+
+    E = π · L · T / (4 · N² · (1 + m)²)        [lx]
+
+An LED of luminous intensity I_v over emitting area A has L = I_v / A. A
+Lambertian background of reflectance ρ under ambient illuminance E_amb has
+L = ρ · E_amb / π; for a distant background m → 0.
+
+Illuminance becomes a photon rate through the light's spectrum: a lux-second
+on one square metre is one lumen-second, and one lumen of a spectrum S(λ)
+carries  ∫ S λ/(h c) dλ / (K_m ∫ S V dλ)  photons, with V the CIE 1924
+photopic luminous efficiency function and K_m = 683 lm/W. colour-science
+supplies V, the LED spectral distribution and the CIE illuminants.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+PLANCK_J_S = 6.62607015e-34
+LIGHT_SPEED_M_S = 299792458.0
+K_M_LM_PER_W = 683.0
+AMBIENT_ILLUMINANTS = ("FL2", "D65", "A", "FL11")
+
+
+def _colour():
+    # colour-science is slow to import; only radiometry needs it.
+    import colour
+
+    return colour
+
+
+@lru_cache(maxsize=None)
+def luminous_efficiency(wavelength_nm: float) -> float:
+    """CIE 1924 photopic V(λ) at ``wavelength_nm`` (interpolated by colour)."""
+    colour = _colour()
+    v = colour.colorimetry.SDS_LEFS_PHOTOPIC["CIE 1924 Photopic Standard Observer"]
+    return float(v[wavelength_nm])
+
+
+def photons_per_lumen_monochromatic(wavelength_nm: float) -> float:
+    """Photons per lumen of monochromatic light: λ / (h c K_m V(λ)).
+
+    Raises
+    ------
+    ValueError
+        Where V(λ) is zero (outside the visible range), since no number of
+        photons makes a lumen there.
+    """
+    v = luminous_efficiency(wavelength_nm)
+    if not v > 0:
+        raise ValueError(f"wavelength {wavelength_nm} nm has zero luminous efficiency; photons per lumen is undefined")
+    return wavelength_nm * 1e-9 / (PLANCK_J_S * LIGHT_SPEED_M_S * K_M_LM_PER_W * v)
+
+
+def photons_per_lumen_spectrum(sd) -> float:
+    """Photons per lumen of a colour ``SpectralDistribution`` (any scale)."""
+    colour = _colour()
+    wavelengths_m = np.asarray(sd.wavelengths, dtype=np.float64) * 1e-9
+    power = np.asarray(sd.values, dtype=np.float64)
+    photons = np.trapezoid(power * wavelengths_m / (PLANCK_J_S * LIGHT_SPEED_M_S), sd.wavelengths)
+    lumens = colour.luminous_flux(sd, K_m=K_M_LM_PER_W)
+    return float(photons / lumens)
+
+
+@lru_cache(maxsize=None)
+def photons_per_lumen_illuminant(name: str) -> float:
+    """Photons per lumen of a CIE standard illuminant (``FL2``, ``D65``, ...)."""
+    if name not in AMBIENT_ILLUMINANTS:
+        raise ValueError(f"unknown illuminant {name!r}; expected one of {list(AMBIENT_ILLUMINANTS)}")
+    return photons_per_lumen_spectrum(_colour().SDS_ILLUMINANTS[name])
+
+
+def led_luminance_cd_m2(luminous_intensity_cd: float, emitting_area_m2: float) -> float:
+    """Luminance L = I_v / A of an LED with a uniform emitting face."""
+    if not emitting_area_m2 > 0:
+        raise ValueError(f"emitting_area_m2 must be > 0, got {emitting_area_m2}")
+    return luminous_intensity_cd / emitting_area_m2
+
+
+def lambertian_luminance_cd_m2(illuminance_lx: float, reflectance: float) -> float:
+    """Luminance L = ρ E / π of a Lambertian surface."""
+    return reflectance * illuminance_lx / math.pi
+
+
+def sensor_illuminance_lx(luminance_cd_m2: float, f_number: float, transmission: float, magnification: float = 0.0) -> float:
+    """Camera equation: E = π L T / (4 N² (1 + m)²), on axis."""
+    return math.pi * luminance_cd_m2 * transmission / (4.0 * f_number**2 * (1.0 + magnification) ** 2)
+
+
+def photon_rate_per_pixel(illuminance_lx: float, pixel_pitch_m: float, photons_per_lumen: float) -> float:
+    """Photons per second reaching one pixel of pitch ``pixel_pitch_m``."""
+    return illuminance_lx * pixel_pitch_m**2 * photons_per_lumen

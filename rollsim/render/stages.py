@@ -1,0 +1,240 @@
+"""Render stages: the core chain and the effects registry.
+
+A stage is a callable that takes a :class:`FrameState` and fills in or
+modifies its arrays. Each has a ``slot``; the pipeline runs slots in the
+order of :data:`SLOTS` (the EMVA 1288 order for the sensor), core stage first
+within a slot. The core (timing, exact exposure integral, footprint, full
+well, ADC, output) always runs; every other stage comes from an effect the
+scene lists. Effects are looked up by name in :data:`EFFECT_BUILDERS`, a
+closed registry: a scene never names code.
+
+A new effect slots in by adding a builder here (and its parameters to
+:mod:`rollsim.scene.effects`); the core stages do not change.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from rollsim.errors import RollsimError
+from rollsim.seeds import rng as named_rng
+from rollsim.sensor import dn_to_gray8, electrons_to_dn
+
+SLOTS = (
+    "timing",  # frame start time
+    "exposure",  # per-row integral of the LED waveform
+    "signal",  # mean photo-electrons: LED, ambient light
+    "dark",  # dark current
+    "shot",  # photon shot noise
+    "fixed_pattern",  # PRNU gain map, DSNU offset map
+    "full_well",  # clip to [0, full well]
+    "read",  # read noise
+    "adc",  # conversion gain, black level, quantisation
+    "output",  # gray8 / raw16
+)
+
+
+@dataclass(frozen=True)
+class Stage:
+    """A named step of the pipeline, bound to its per-scene constants."""
+
+    name: str
+    slot: str
+    run: Callable
+
+    def __call__(self, state) -> None:
+        self.run(state)
+
+
+# ------------------------------------------------------------------ core
+
+
+def frame_start_stage(setup) -> Stage:
+    period = setup.timing.frame_period_s
+
+    def run(state):
+        state.start_s = state.index * period
+
+    return Stage("frame_start", "timing", run)
+
+
+def led_exposure_stage(setup) -> Stage:
+    timing, waveform = setup.timing, setup.transmitter.waveform
+
+    def run(state):
+        start, end = timing.row_windows(state.start_s)
+        state.led_exposure_s = waveform.exposure(start, end)
+
+    return Stage("led_exposure", "exposure", run)
+
+
+def led_signal_stage(setup) -> Stage:
+    """Mean electrons of the LED: coverage × rate × ∫ s dt, per row."""
+    fp, rate, shape = setup.footprint, setup.led_e_per_s, setup.shape
+    cov = fp.coverage
+
+    def run(state):
+        electrons = np.zeros(shape)
+        if cov.size:
+            row_signal = rate * state.led_exposure_s[fp.rows]
+            electrons[fp.rows, fp.cols] = cov * row_signal[:, None]
+        state.electrons = electrons
+
+    return Stage("led_signal", "signal", run)
+
+
+def full_well_stage(setup) -> Stage:
+    full_well = setup.scene.camera.full_well_e
+
+    def run(state):
+        np.clip(state.electrons, 0.0, full_well, out=state.electrons)
+
+    return Stage("full_well", "full_well", run)
+
+
+def adc_stage(setup) -> Stage:
+    cam, gain = setup.scene.camera, setup.gain_dn_per_e
+
+    def run(state):
+        state.dn = electrons_to_dn(state.electrons, gain, cam.black_level_dn, cam.adc_bits)
+
+    return Stage("adc", "adc", run)
+
+
+def output_stage(setup) -> Stage:
+    cam, effects = setup.scene.camera, setup.scene.effects
+    if cam.output == "raw16":
+
+        def run(state):
+            state.image = state.dn
+
+        return Stage("raw16", "output", run)
+    if cam.output == "gray8":
+        gamma = effects.tone_curve.gamma if effects.tone_curve is not None else None
+
+        def run(state):
+            state.image = dn_to_gray8(state.dn, cam.black_level_dn, cam.adc_bits, gamma)
+
+        return Stage("gray8" if gamma is None else "gray8_tone_curve", "output", run)
+    raise RollsimError(f"camera.output = {cam.output!r} is not available yet in this version of rollsim")
+
+
+CORE_BUILDERS = (frame_start_stage, led_exposure_stage, led_signal_stage, full_well_stage, adc_stage, output_stage)
+
+
+# ---------------------------------------------------------------- effects
+
+
+def ambient_stage(setup, params) -> Stage:
+    """Ambient light: a lit background, hidden where the LED covers it, and
+    ambient light reflected by the LED's face (which raises its OFF level)."""
+    fp, t_exp = setup.footprint, setup.timing.exposure_s
+    background = setup.background_e_per_s * t_exp
+    # In the footprint the face replaces the background in proportion to coverage.
+    correction = (setup.face_e_per_s * t_exp - background) * fp.coverage
+
+    def run(state):
+        state.electrons += background
+        if correction.size:
+            state.electrons[fp.rows, fp.cols] += correction
+
+    return Stage("ambient", "signal", run)
+
+
+def dark_current_stage(setup, params) -> Stage:
+    dark = setup.scene.camera.dark_current_e_per_s * setup.timing.exposure_s
+
+    def run(state):
+        state.electrons += dark
+
+    return Stage("dark_current", "dark", run)
+
+
+def shot_noise_stage(setup, params) -> Stage:
+    if params.method == "poisson":
+
+        def run(state):
+            state.electrons = state.rng("shot_noise").poisson(state.electrons).astype(np.float64)
+
+    else:
+        # Gaussian approximation N(μ, μ): one normal deviate per pixel.
+        def run(state):
+            noise = state.rng("shot_noise").standard_normal(state.electrons.shape)
+            noise *= np.sqrt(state.electrons)
+            state.electrons += noise
+
+    return Stage(f"shot_noise[{params.method}]", "shot", run)
+
+
+def _fixed_map(setup, stream: str) -> np.ndarray:
+    # Fixed-pattern maps depend on the scene seed only (no frame key): the
+    # same camera in every frame.
+    return named_rng(setup.scene.seed, stream).standard_normal(setup.shape)
+
+
+def prnu_stage(setup, params) -> Stage:
+    gain_map = 1.0 + 0.01 * setup.scene.camera.prnu_percent * _fixed_map(setup, "prnu")
+
+    def run(state):
+        state.electrons *= gain_map
+
+    return Stage("prnu", "fixed_pattern", run)
+
+
+def dsnu_stage(setup, params) -> Stage:
+    offset_map = setup.scene.camera.dsnu_e * _fixed_map(setup, "dsnu")
+
+    def run(state):
+        state.electrons += offset_map
+
+    return Stage("dsnu", "fixed_pattern", run)
+
+
+def read_noise_stage(setup, params) -> Stage:
+    sigma = setup.scene.camera.read_noise_e
+
+    def run(state):
+        noise = state.rng("read_noise").standard_normal(state.electrons.shape)
+        noise *= sigma
+        state.electrons += noise
+
+    return Stage("read_noise", "read", run)
+
+
+def tone_curve_stage(setup, params):
+    # The tone curve acts inside the gray8 conversion (before rounding to 8
+    # bits); output_stage reads its gamma. No stage of its own.
+    if setup.scene.camera.output != "gray8":
+        raise RollsimError("effects.tone_curve: applies to camera.output = 'gray8' only")
+    return None
+
+
+EFFECT_BUILDERS = {
+    "ambient": ambient_stage,
+    "dark_current": dark_current_stage,
+    "shot_noise": shot_noise_stage,
+    "prnu": prnu_stage,
+    "dsnu": dsnu_stage,
+    "read_noise": read_noise_stage,
+    "tone_curve": tone_curve_stage,
+}
+
+
+def assemble_stages(setup) -> list[Stage]:
+    """The stages of a scene, in slot order: the core plus the listed effects only."""
+    stages = [builder(setup) for builder in CORE_BUILDERS]
+    effects = setup.scene.effects
+    for name in effects.enabled():
+        builder = EFFECT_BUILDERS.get(name)
+        if builder is None:
+            raise RollsimError(f"effects.{name}: this effect is not available yet in this version of rollsim")
+        stage = builder(setup, getattr(effects, name))
+        if stage is not None:
+            stages.append(stage)
+    order = {slot: i for i, slot in enumerate(SLOTS)}
+    core = {id(s) for s in stages[: len(CORE_BUILDERS)]}
+    # Stable sort: by slot, core first within a slot, then registry order.
+    return sorted(stages, key=lambda s: (order[s.slot], id(s) not in core))

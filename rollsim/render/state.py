@@ -1,0 +1,47 @@
+"""The state one frame carries through the render pipeline."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rollsim.seeds import rng as named_rng
+
+
+@dataclass
+class FrameState:
+    """Arrays of one frame as the stages fill them in.
+
+    Attributes
+    ----------
+    setup : SceneSetup
+        Per-scene constants.
+    index : int
+        Frame index k.
+    start_s : float
+        Frame start t_k in seconds.
+    led_exposure_s : ndarray, shape (H,)
+        ∫ s dt over each row's exposure window, in seconds at level 1.
+    electrons : ndarray of float64, shape (H, W)
+        Mean photo-electrons, then electrons after each noise stage.
+    dn : ndarray of uint16, shape (H, W)
+        ADC output.
+    image : ndarray
+        The output frame (uint8 or uint16).
+    """
+
+    setup: object
+    index: int
+    start_s: float = 0.0
+    led_exposure_s: np.ndarray | None = None
+    electrons: np.ndarray | None = None
+    dn: np.ndarray | None = None
+    image: np.ndarray | None = None
+    extras: dict = field(default_factory=dict)
+
+    def rng(self, stream: str) -> np.random.Generator:
+        """Random generator of ``stream`` for this frame: depends only on the
+        scene seed, the stream name and the frame index, so frames can be
+        rendered in any order or in parallel with identical results."""
+        return named_rng(self.setup.scene.seed, stream, self.index)

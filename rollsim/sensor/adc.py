@@ -1,0 +1,40 @@
+"""Conversion gain, ADC and output formats (the end of the EMVA 1288 chain)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn: int, adc_bits: int) -> np.ndarray:
+    """ADC: DN = clip(round(K·e) + black level, 0, 2^bits − 1), as uint16.
+
+    Parameters
+    ----------
+    electrons : ndarray
+        Electrons per pixel (after noise and the full-well clip).
+    gain_dn_per_e : float
+        Conversion gain K at the set ISO, DN per electron.
+    black_level_dn : int
+    adc_bits : int
+    """
+    dn = np.rint(electrons * np.float32(gain_dn_per_e))
+    dn += np.float32(black_level_dn)
+    np.clip(dn, 0, 2**adc_bits - 1, out=dn)
+    return dn.astype(np.uint16)
+
+
+def dn_to_gray8(dn: np.ndarray, black_level_dn: int, adc_bits: int, gamma: float | None = None) -> np.ndarray:
+    """8-bit grey image: black level removed, range scaled to 0…255.
+
+    v = (DN − black) / (2^bits − 1 − black), clipped to [0, 1], optionally
+    raised to 1/gamma (the ``tone_curve`` effect), then rounded to 0…255.
+    """
+    full_scale = float(2**adc_bits - 1 - black_level_dn)
+    if full_scale <= 0:
+        raise ValueError("black level leaves no ADC range")
+    v = (dn.astype(np.float32) - np.float32(black_level_dn)) * np.float32(1.0 / full_scale)
+    np.clip(v, 0.0, 1.0, out=v)
+    if gamma is not None:
+        np.power(v, np.float32(1.0 / gamma), out=v)
+    v *= np.float32(255.0)
+    return np.rint(v).astype(np.uint8)

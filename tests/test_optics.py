@@ -1,0 +1,89 @@
+"""Optics: thin lens, footprint coverage, radiometry against known values."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from rollsim.optics import covered_rows, image_size_px, magnification
+from rollsim.optics.footprint import footprint
+from rollsim.optics.radiometry import (
+    photons_per_lumen_illuminant,
+    photons_per_lumen_monochromatic,
+    sensor_illuminance_lx,
+)
+
+
+def test_magnification_and_divergence():
+    assert magnification(4e-3, 0.05) == pytest.approx(4 / 46)
+    with pytest.raises(ValueError, match="thin lens diverges"):
+        magnification(4e-3, 4e-3)
+    assert image_size_px(4e-3, 3.97e-3, 0.05, 1.4e-6) == pytest.approx(4e-3 * 3.97 / 46.03 / 1.4e-6)
+
+
+def test_covered_rows_clip_to_the_frame():
+    assert covered_rows(540.0, 100.0, 1080) == (490, 589)
+    assert covered_rows(10.0, 100.0, 1080) == (0, 59)
+    first, last = covered_rows(-500.0, 10.0, 1080)
+    assert first > last
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    cx=st.floats(-20, 80),
+    cy=st.floats(-20, 80),
+    size=st.floats(0.01, 120),
+)
+def test_exact_disk_coverage_is_the_clipped_disk_area(cx, cy, size):
+    """The covered areas sum to the disk's area inside the frame, which a
+    fine quadrature of the disk's chords gives independently."""
+    fp = footprint((cx, cy), size, "disk", (60, 60))
+    assert np.all((fp.coverage >= 0) & (fp.coverage <= 1))
+    r = size / 2
+    x = np.linspace(max(0.0, cx - r), min(60.0, cx + r), 20001)
+    half = np.sqrt(np.maximum(r * r - (x - cx) ** 2, 0))
+    chord = np.clip(np.minimum(cy + half, 60) - np.maximum(cy - half, 0), 0, None)
+    expected = np.trapezoid(chord, x) if x.size > 1 and x[-1] > x[0] else 0.0
+    assert fp.coverage.sum() == pytest.approx(expected, rel=1e-4, abs=1e-4)
+
+
+def test_disk_wholly_inside_has_area_pi_r_squared():
+    fp = footprint((50.3, 47.9), 31.7, "disk", (100, 100))
+    assert fp.coverage.sum() == pytest.approx(math.pi * 31.7**2 / 4, rel=1e-12)
+
+
+def test_supersampling_converges_to_exact():
+    exact = footprint((20.2, 19.6), 17.3, "disk", (40, 40)).coverage
+    errors = [
+        np.abs(footprint((20.2, 19.6), 17.3, "disk", (40, 40), edge).coverage - exact).max()
+        for edge in ("supersample1", "supersample4", "supersample16")
+    ]
+    assert errors[0] > errors[2] and errors[2] < 0.1
+
+
+def test_square_coverage_is_separable_and_exact():
+    fp = footprint((10.25, 10.75), 4.5, "square", (20, 20))
+    assert fp.coverage.sum() == pytest.approx(4.5**2)
+    assert fp.coverage.max() == 1.0
+
+
+def test_photons_per_lumen_at_555_nm():
+    # 1 lm at 555 nm is 1/683 W; one photon carries h c / λ.
+    expected = (1 / 683) / (6.62607015e-34 * 299792458.0 / 555e-9)
+    assert photons_per_lumen_monochromatic(555.0) == pytest.approx(expected, rel=1e-6)
+    # V(630) = 0.265: red light needs more photons per lumen.
+    assert photons_per_lumen_monochromatic(630.0) == pytest.approx(expected * 630 / 555 / 0.265, rel=1e-3)
+
+
+def test_photons_per_lumen_of_white_illuminants_lies_between_green_and_red():
+    for name in ("FL2", "D65", "A"):
+        value = photons_per_lumen_illuminant(name)
+        assert photons_per_lumen_monochromatic(555.0) < value < photons_per_lumen_monochromatic(650.0)
+
+
+def test_camera_equation():
+    # L = 1000 cd/m2 at f/2, T = 1, m = 0: E = π 1000 / 16.
+    assert sensor_illuminance_lx(1000.0, 2.0, 1.0) == pytest.approx(math.pi * 1000 / 16)
+    assert sensor_illuminance_lx(1000.0, 2.0, 1.0, 1.0) == pytest.approx(math.pi * 1000 / 64)
