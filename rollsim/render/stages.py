@@ -22,6 +22,7 @@ import numpy as np
 from rollsim.errors import RollsimError
 from rollsim.seeds import rng as named_rng
 from rollsim.sensor import dn_to_gray8, electrons_to_dn
+from rollsim.sensor.poisson import poisson
 
 SLOTS = (
     "timing",  # frame start time
@@ -157,7 +158,7 @@ def shot_noise_stage(setup, params) -> Stage:
     if params.method == "poisson":
 
         def run(state):
-            state.electrons = state.rng("shot_noise").poisson(state.electrons).astype(np.float64)
+            state.electrons = poisson(state.rng("shot_noise"), state.electrons)
 
     else:
         # Gaussian approximation N(μ, μ): one normal deviate per pixel.
