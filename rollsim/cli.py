@@ -91,6 +91,17 @@ def cmd_render(args) -> int:
     return EXIT_OK
 
 
+def cmd_bench(args) -> int:
+    """Run a benchmark."""
+    return args.bench_main(args)
+
+
+def _bench_render_main(args) -> int:
+    from rollsim.bench.render import main as bench_main
+
+    return bench_main(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rollsim",
@@ -126,6 +137,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
     p.set_defaults(func=cmd_render)
+
+    bench = sub.add_parser("bench", help="benchmarks: speed and memory on this machine")
+    bench_sub = bench.add_subparsers(dest="bench", metavar="BENCHMARK")
+    bench_sub.required = True
+    p = bench_sub.add_parser("render", help="render ms/frame at 1080p, end-to-end frames/s, peak memory")
+    p.add_argument("--frames", type=_positive_int, default=20, help="frames timed per variant (default 20)")
+    p.add_argument("--e2e-frames", type=_positive_int, default=120, help="frames of the end-to-end run (default 120)")
+    p.add_argument("--rss-frames", type=_positive_int, nargs=2, default=[200, 2000], help="two frame counts for peak memory")
+    p.add_argument("--workers", type=_positive_int, default=2, help="workers of the end-to-end runs (default 2)")
+    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.set_defaults(func=cmd_bench, bench_main=_bench_render_main)
     return parser
 
 

@@ -1,0 +1,37 @@
+"""Shared helpers of the benchmarks."""
+
+from __future__ import annotations
+
+import platform
+import time
+from typing import Callable
+
+import numpy as np
+
+
+def seconds_per_call(function: Callable[[int], object], n: int, warmup: int = 1) -> float:
+    """Median seconds per call of ``function(i)`` over ``n`` calls, after warm-up."""
+    for i in range(warmup):
+        function(i)
+    times = []
+    for i in range(warmup, warmup + n):
+        start = time.perf_counter()
+        function(i)
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def machine() -> dict:
+    """What the figures were measured on."""
+    import os
+
+    return {"python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine()}
+
+
+def format_table(rows: list[tuple], header: tuple) -> str:
+    """A plain-text table with aligned columns."""
+    cells = [tuple(str(c) for c in header)] + [tuple(str(c) for c in row) for row in rows]
+    widths = [max(len(row[i]) for row in cells) for i in range(len(header))]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(row, widths)) for row in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
