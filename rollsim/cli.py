@@ -91,6 +91,41 @@ def cmd_render(args) -> int:
     return EXIT_OK
 
 
+def cmd_analytic(args) -> int:
+    """Tables of p0 and P(message) against r under MMBP and Gilbert-Elliott."""
+    import csv
+
+    from rollsim.channel.tables import COLUMNS, analytic_table, plot_analytic
+
+    if args.M + args.N < 1:
+        raise RollsimError("--M + --N must be at least 1")
+    if not 0 <= args.p_e <= 1:
+        raise RollsimError(f"--p-e = {args.p_e}: must be in [0, 1]")
+    if (args.p is None) != (args.q is None):
+        raise RollsimError("give both --p and --q, or neither (then p = M/(M+N), q = 1 - p, the paper's Eq. 1)")
+    r_values = range(1, args.r_max + 1)
+    rows = analytic_table(args.M, args.N, args.p_e, args.n_packets, r_values, args.p, args.q)
+    if args.json:
+        payload = {"M": args.M, "N": args.N, "p_e": args.p_e, "n_packets": args.n_packets, "rows": rows}
+        _write_text(args.json, json.dumps(payload, indent=2) + "\n")
+    else:
+        writer = csv.DictWriter(sys.stdout, fieldnames=COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in row.items()})
+    if args.plot:
+        cycle = args.M + args.N
+        ratios = {(m, cycle - m): analytic_table(m, cycle - m, args.p_e, args.n_packets, r_values) for m in range(1, cycle)}
+        plot_analytic(rows, args.M, args.N, args.p_e, args.n_packets, args.plot, ratios)
+    return EXIT_OK
+
+
+def _write_text(path: str, text: str) -> None:
+    from rollsim.outdir import write_text_atomic
+
+    write_text_atomic(Path(path), text)
+
+
 def cmd_bench(args) -> int:
     """Run a benchmark."""
     return args.bench_main(args)
@@ -138,6 +173,18 @@ def build_parser() -> argparse.ArgumentParser:
     _add_set_option(p)
     p.set_defaults(func=cmd_render)
 
+    p = sub.add_parser("analytic", help="p0 and P(message) against r under MMBP and Gilbert-Elliott (paper Fig. 7-9)")
+    p.add_argument("--M", type=_non_negative_int, default=5, help="ON slots per frame (default 5, paper Fig. 8)")
+    p.add_argument("--N", type=_non_negative_int, default=2, help="OFF slots per frame (default 2)")
+    p.add_argument("--p-e", type=float, default=0.001, help="PHY-SDU error rate in ON slots (default 0.001)")
+    p.add_argument("--n-packets", type=_positive_int, default=50, help="packets in the message (default 50)")
+    p.add_argument("--r-max", type=_positive_int, default=10, help="largest r (default 10)")
+    p.add_argument("--p", type=float, default=None, help="Gilbert-Elliott p (default M/(M+N))")
+    p.add_argument("--q", type=float, default=None, help="Gilbert-Elliott q (default 1 - p)")
+    p.add_argument("--json", metavar="FILE", help="write JSON instead of CSV on stdout")
+    p.add_argument("--plot", metavar="PNG", help="also save a plot like the paper's Fig. 7-9")
+    p.set_defaults(func=cmd_analytic)
+
     bench = sub.add_parser("bench", help="benchmarks: speed and memory on this machine")
     bench_sub = bench.add_subparsers(dest="bench", metavar="BENCHMARK")
     bench_sub.required = True
@@ -151,14 +198,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
+def _int_at_least(minimum: int, words: str):
+    """An argparse type: an integer >= ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = minimum - 1
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected a {words} integer, got {text!r}")
+        return value
+
+    return parse
+
+
+_positive_int = _int_at_least(1, "positive")
+_non_negative_int = _int_at_least(0, "non-negative")
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:

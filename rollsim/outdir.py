@@ -58,3 +58,23 @@ def atomic_output_dir(out_dir: Path, force: bool = False):
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
 
+
+
+def write_text_atomic(path: Path, text: str, force: bool = True) -> None:
+    """Write ``text`` to ``path`` through a temporary file and a rename.
+
+    Raises
+    ------
+    OutputError
+        If ``path`` exists and ``force`` is false, or cannot be written.
+    """
+    path = Path(path)
+    if path.exists() and not force:
+        raise OutputError(f"{path}: exists; use --force to replace it")
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OutputError(f"{path}: cannot write ({exc.strerror})") from None
