@@ -21,7 +21,8 @@ import numpy as np
 
 from rollsim.errors import RollsimError
 from rollsim.seeds import rng as named_rng
-from rollsim.sensor import dn_to_gray8, electrons_to_dn
+from rollsim.sensor import electrons_to_dn, gray8_lut
+from rollsim.sensor.gaussian import standard_normal
 from rollsim.sensor.poisson import poisson
 
 SLOTS = (
@@ -115,9 +116,11 @@ def output_stage(setup) -> Stage:
         return Stage("raw16", "output", run)
     if cam.output == "gray8":
         gamma = effects.tone_curve.gamma if effects.tone_curve is not None else None
+        # Every DN maps to one gray level: a table lookup per pixel.
+        lut = gray8_lut(cam.black_level_dn, cam.adc_bits, gamma)
 
         def run(state):
-            state.image = dn_to_gray8(state.dn, cam.black_level_dn, cam.adc_bits, gamma)
+            state.image = lut[state.dn]
 
         return Stage("gray8" if gamma is None else "gray8_tone_curve", "output", run)
     raise RollsimError(f"camera.output = {cam.output!r} is not available yet in this version of rollsim")
@@ -161,11 +164,13 @@ def shot_noise_stage(setup, params) -> Stage:
             state.electrons = poisson(state.rng("shot_noise"), state.electrons)
 
     else:
-        # Gaussian approximation N(μ, μ): one normal deviate per pixel.
+        # Gaussian approximation N(μ, μ): one (table) normal deviate per pixel.
         def run(state):
-            noise = state.rng("shot_noise").standard_normal(state.electrons.shape)
-            noise *= np.sqrt(state.electrons)
-            state.electrons += noise
+            mean = state.electrons.astype(np.float32)
+            noise = standard_normal(state.rng("shot_noise"), mean.shape, "table")
+            noise *= np.sqrt(mean)
+            noise += mean
+            state.electrons = noise
 
     return Stage(f"shot_noise[{params.method}]", "shot", run)
 
@@ -173,11 +178,11 @@ def shot_noise_stage(setup, params) -> Stage:
 def _fixed_map(setup, stream: str) -> np.ndarray:
     # Fixed-pattern maps depend on the scene seed only (no frame key): the
     # same camera in every frame.
-    return named_rng(setup.scene.seed, stream).standard_normal(setup.shape)
+    return named_rng(setup.scene.seed, stream).standard_normal(setup.shape, dtype=np.float32)
 
 
 def prnu_stage(setup, params) -> Stage:
-    gain_map = 1.0 + 0.01 * setup.scene.camera.prnu_percent * _fixed_map(setup, "prnu")
+    gain_map = np.float32(1.0) + np.float32(0.01 * setup.scene.camera.prnu_percent) * _fixed_map(setup, "prnu")
 
     def run(state):
         state.electrons *= gain_map
@@ -186,7 +191,7 @@ def prnu_stage(setup, params) -> Stage:
 
 
 def dsnu_stage(setup, params) -> Stage:
-    offset_map = setup.scene.camera.dsnu_e * _fixed_map(setup, "dsnu")
+    offset_map = np.float32(setup.scene.camera.dsnu_e) * _fixed_map(setup, "dsnu")
 
     def run(state):
         state.electrons += offset_map
@@ -195,14 +200,15 @@ def dsnu_stage(setup, params) -> Stage:
 
 
 def read_noise_stage(setup, params) -> Stage:
-    sigma = setup.scene.camera.read_noise_e
+    sigma = np.float32(setup.scene.camera.read_noise_e)
 
     def run(state):
-        noise = state.rng("read_noise").standard_normal(state.electrons.shape)
+        noise = standard_normal(state.rng("read_noise"), state.electrons.shape, params.method)
         noise *= sigma
-        state.electrons += noise
+        noise += state.electrons
+        state.electrons = noise
 
-    return Stage("read_noise", "read", run)
+    return Stage(f"read_noise[{params.method}]", "read", run)
 
 
 def tone_curve_stage(setup, params):

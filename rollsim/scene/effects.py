@@ -27,6 +27,17 @@ class ShotNoise(_Params):
     method: Literal["poisson", "gaussian"] = "poisson"
 
 
+class ReadNoise(_Params):
+    """Read noise, Gaussian in electrons (sigma: ``camera.read_noise_e``).
+
+    ``method``: ``table`` draws from a 65,536-bin quantile table with exact
+    tails (Kolmogorov distance 7.6e-6 from the normal, about 3x faster);
+    ``exact`` uses numpy's Ziggurat. See :mod:`rollsim.sensor.gaussian`.
+    """
+
+    method: Literal["table", "exact"] = "table"
+
+
 class ToneCurve(_Params):
     """Display gamma for ``gray8`` output: value ** (1 / gamma)."""
 
@@ -38,7 +49,7 @@ class Effects(_Params):
 
     ambient: Optional[NoParams] = None
     shot_noise: Optional[ShotNoise] = None
-    read_noise: Optional[NoParams] = None
+    read_noise: Optional[ReadNoise] = None
     dark_current: Optional[NoParams] = None
     prnu: Optional[NoParams] = None
     dsnu: Optional[NoParams] = None

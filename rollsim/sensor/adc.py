@@ -8,6 +8,9 @@ import numpy as np
 def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn: int, adc_bits: int) -> np.ndarray:
     """ADC: DN = clip(round(K·e) + black level, 0, 2^bits − 1), as uint16.
 
+    Rounds half up: floor(K·e + black + 0.5). Works in the dtype of
+    ``electrons`` (float32 after shot noise, float64 for noiseless means).
+
     Parameters
     ----------
     electrons : ndarray
@@ -17,10 +20,17 @@ def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn:
     black_level_dn : int
     adc_bits : int
     """
-    dn = np.rint(electrons * np.float32(gain_dn_per_e))
-    dn += np.float32(black_level_dn)
-    np.clip(dn, 0, 2**adc_bits - 1, out=dn)
+    dtype = electrons.dtype.type
+    dn = electrons * dtype(gain_dn_per_e)
+    dn += dtype(black_level_dn + 0.5)
+    # Clip before the cast (which truncates): to [0, 2^bits - 1 + 0.5).
+    np.clip(dn, 0.0, dtype(2**adc_bits - 0.5), out=dn)
     return dn.astype(np.uint16)
+
+
+def gray8_lut(black_level_dn: int, adc_bits: int, gamma: float | None = None) -> np.ndarray:
+    """The gray8 value of every DN, 0 … 2^bits − 1 (see :func:`dn_to_gray8`)."""
+    return dn_to_gray8(np.arange(2**adc_bits, dtype=np.uint16), black_level_dn, adc_bits, gamma)
 
 
 def dn_to_gray8(dn: np.ndarray, black_level_dn: int, adc_bits: int, gamma: float | None = None) -> np.ndarray:

@@ -4,9 +4,10 @@ A rendered frame's mean-electron image is mostly made of long runs of equal
 values along each row: the uniform background, and the LED's interior, whose
 value changes from row to row but not along a row. For pixels in such runs
 this sampler inverts the Poisson CDF of the run's mean at a uniform deviate
-(53 bits, from the generator's raw 64-bit output), through a table indexed by
-the deviate's leading 10 bits; where a table bin holds a step of the CDF, the
-exact step is found by binary search. The CDF is summed from the log pmf over
+through a table over 1024 equal bins of the deviate: a 16-bit random integer
+picks the bin, which fixes the result unless a step of the CDF lies inside
+the bin; then a fresh double-precision uniform places the deviate within the
+bin and a binary search finds the exact step. The CDF is summed from the log pmf over
 the mean ± (12√λ + 12), outside which the probability is below 1e-30. Pixels
 in short runs (the LED's anti-aliased edge), and means above
 :data:`MAX_TABLE_MEAN`, go to numpy's Poisson sampler. The law is Poisson in
@@ -27,6 +28,9 @@ MIN_RUN = 16
 MAX_TABLE_MEAN = 1.0e4
 BIN_BITS = 10
 TABLE_BINS = 1 << BIN_BITS
+# Table entries hold k in the low 15 bits (k < 2**15 for means up to 1e4) and
+# the "a CDF step lies inside this bin" flag in bit 15: one lookup gives both.
+_STRADDLE = np.uint16(1 << 15)
 _MAX_CLASSES = 65535  # class ids are uint16; one id is kept for "no table"
 
 
@@ -66,7 +70,7 @@ def _cdf_segments(means: np.ndarray):
 
 
 def _tables(means: np.ndarray):
-    """Lookup tables over (class, bin): k at the bin's start, and whether a CDF step lies inside."""
+    """Lookup table over (class, bin): k at the bin's start, flagged where a CDF step lies inside."""
     k_lo, offsets, owner, cdf = _cdf_segments(means)
     n = means.size
     # hist[c, b]: CDF entries of class c in bin b (bin B holds those at 1).
@@ -74,9 +78,11 @@ def _tables(means: np.ndarray):
     hist = np.bincount(owner * (TABLE_BINS + 1) + bins, minlength=n * (TABLE_BINS + 1)).reshape(n, TABLE_BINS + 1)
     below = np.cumsum(hist[:, :TABLE_BINS], axis=1) - hist[:, :TABLE_BINS]
     last = (offsets[1:] - offsets[:-1] - 1)[:, None]
-    k_at_bin = (k_lo[:, None] + np.minimum(below, last)).astype(np.uint16)
-    straddles = hist[:, :TABLE_BINS] > 0
-    return k_at_bin, straddles, k_lo, offsets, cdf
+    table = (k_lo[:, None] + np.minimum(below, last)).astype(np.uint16)
+    table[hist[:, :TABLE_BINS] > 0] |= _STRADDLE
+    # The last row is for pixels left to numpy.
+    table = np.vstack([table, np.zeros((1, TABLE_BINS), np.uint16)])
+    return table, k_lo, offsets, cdf
 
 
 def _refine(classes, u, k_lo, offsets, cdf) -> np.ndarray:
@@ -96,36 +102,38 @@ def _refine(classes, u, k_lo, offsets, cdf) -> np.ndarray:
 
 
 def poisson(rng: np.random.Generator, lam: np.ndarray) -> np.ndarray:
-    """Poisson deviates with means ``lam``, as float64 of the same shape.
+    """Poisson deviates with means ``lam``, as float32 of the same shape.
 
-    Exact; fast for long runs of equal means along the rows of a 2-D array
+    float32 holds every count up to 2**24 exactly. Exact; fast for long runs of equal means along the rows of a 2-D array
     (see the module docstring). The result depends only on ``rng``'s state
     and ``lam``.
     """
     lam = np.asarray(lam, dtype=np.float64)
     if lam.ndim != 2 or lam.size == 0:
-        return rng.poisson(lam).astype(np.float64)
+        return rng.poisson(lam).astype(np.float32)
     starts, lengths, values = _runs(lam)
     tabled = (lengths >= MIN_RUN) & (values <= MAX_TABLE_MEAN)
     means, inverse = np.unique(values[tabled], return_inverse=True)
     if means.size == 0 or means.size > _MAX_CLASSES:
-        return rng.poisson(lam).astype(np.float64)
+        return rng.poisson(lam).astype(np.float32)
     no_table = means.size  # the class id of pixels left to numpy
     run_class = np.full(starts.size, no_table, dtype=np.uint16)
     run_class[tabled] = inverse
     class_map = np.repeat(run_class, lengths)
-    k_at_bin, straddles, k_lo, offsets, cdf = _tables(means)
-    k_at_bin = np.vstack([k_at_bin, np.zeros((1, TABLE_BINS), np.uint16)])
-    straddles = np.vstack([straddles, np.zeros((1, TABLE_BINS), bool)])
+    table, k_lo, offsets, cdf = _tables(means)
 
-    raw = rng.bit_generator.random_raw(lam.size)
+    bins = rng.integers(0, 1 << 16, size=lam.size, dtype=np.uint16)
+    bins >>= np.uint16(16 - BIN_BITS)
     index = class_map.astype(np.uint32)
     index <<= BIN_BITS
-    index |= (raw >> np.uint64(64 - BIN_BITS)).astype(np.uint32)
-    out = k_at_bin.ravel()[index].astype(np.float64)
-    refine = np.flatnonzero(straddles.ravel()[index])
+    index |= bins
+    entry = table.ravel()[index]
+    refine = np.flatnonzero(entry >= _STRADDLE)
+    entry &= np.uint16(_STRADDLE - 1)
+    out = entry.astype(np.float32)
     if refine.size:
-        u = (raw[refine] >> np.uint64(11)).astype(np.float64) * 2.0**-53
+        # The uniform deviate, uniform within its bin: (bin + V) / B.
+        u = (bins[refine] + rng.random(refine.size)) / TABLE_BINS
         out[refine] = _refine(class_map[refine].astype(np.int64), u, k_lo, offsets, cdf)
     rest = np.flatnonzero(class_map == no_table)
     if rest.size:

@@ -11,7 +11,7 @@ def make_scene(effects=(), **sections):
         "camera": {"preset": "nexus5", "width_px": 160, "height_px": 200, "row_time_us": 20.0, "output": "raw16"},
         "led": {"size_mm": 30.0, "luminous_intensity_cd": 0.05},
         "link": {"distance_cm": 5.0},
-        "effects": list(effects),
+        "effects": effects if isinstance(effects, dict) else list(effects),
     }
     for section, values in sections.items():
         if isinstance(values, dict):
