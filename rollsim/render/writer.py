@@ -2,8 +2,9 @@
 
 Frames stream through a bounded window of work, so memory stays flat however
 many frames are rendered. With several workers, each process builds the
-pipeline once and renders and PNG-encodes whole chunks of frames; frames are
-written in order. Every random stream depends only on the seed and the frame
+pipeline once, then renders, PNG-encodes and writes whole chunks of frames
+itself (only the small truth records travel back); truth lines are written
+in frame order. Every random stream depends only on the seed and the frame
 index, so the output is byte-identical for any number of workers.
 """
 
@@ -59,12 +60,13 @@ def _init_worker(scene) -> None:
     _WORKER_PIPELINE = RenderPipeline(scene)
 
 
-def _render_chunk(indices: list[int]) -> list[tuple[int, bytes, dict]]:
-    out = []
+def _render_chunk(indices: list[int], frames_dir: Path) -> list[dict]:
+    truths = []
     for index in indices:
         frame = _WORKER_PIPELINE.render(index)
-        out.append((frame.index, encode_png(frame.image), frame.truth))
-    return out
+        (frames_dir / FRAME_NAME.format(frame.index)).write_bytes(encode_png(frame.image))
+        truths.append(frame.truth)
+    return truths
 
 
 def _chunks(n_frames: int, size: int) -> Iterator[list[int]]:
@@ -72,18 +74,18 @@ def _chunks(n_frames: int, size: int) -> Iterator[list[int]]:
         yield list(range(first, min(n_frames, first + size)))
 
 
-def _encoded_frames(scene, n_frames: int, workers: int) -> Iterator[tuple[int, bytes, dict]]:
+def _written_frames(scene, n_frames: int, workers: int, frames_dir: Path) -> Iterator[dict]:
+    """Render and write every frame; yield the truth records in frame order."""
     if workers <= 1:
         _init_worker(scene)
         for chunk in _chunks(n_frames, CHUNK_FRAMES):
-            yield from _render_chunk(chunk)
+            yield from _render_chunk(chunk, frames_dir)
         return
     with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(scene,)) as pool:
         pending = []
-        chunks = _chunks(n_frames, CHUNK_FRAMES)
         # A bounded window of chunks in flight keeps memory flat.
-        for chunk in chunks:
-            pending.append(pool.submit(_render_chunk, chunk))
+        for chunk in _chunks(n_frames, CHUNK_FRAMES):
+            pending.append(pool.submit(_render_chunk, chunk, frames_dir))
             if len(pending) >= 2 * workers:
                 yield from pending.pop(0).result()
         for future in pending:
@@ -130,8 +132,7 @@ def render_to_dir(
         frames_dir.mkdir()
         (partial / "scene.resolved.yaml").write_text(scene_to_yaml(scene), encoding="utf-8")
         with open(partial / "truth.jsonl", "w", encoding="utf-8") as truth_file:
-            for written, (index, png, truth) in enumerate(_encoded_frames(scene, n_frames, workers), start=1):
-                (frames_dir / FRAME_NAME.format(index)).write_bytes(png)
+            for written, truth in enumerate(_written_frames(scene, n_frames, workers, frames_dir), start=1):
                 truth_file.write(json.dumps(truth, separators=(",", ":")) + "\n")
                 if progress is not None:
                     progress(written)
