@@ -1,0 +1,245 @@
+"""Evaluation: a verdict for every emitted PHY-SDU against exact ground truth.
+
+Decoded PHY-SDUs are matched to the truth by frame and rows: a decode matches
+the PHY-SDU of that frame whose row span (centre convention,
+``first_row_f`` … ``last_row_f``) holds the decode's middle row. Every
+emission from the first to the last that the rendered time span covers gets
+exactly one outcome, including those sent wholly inside an inter-frame gap,
+which no truth record lists:
+
+``ok``
+    decoded, the check passed, and sequence number and payload are right;
+``undetected_error``
+    decoded, the check passed, but the sequence number or payload is wrong;
+``corrupted``
+    decoded, but the check failed;
+``missed``
+    fully visible in some frame, not decoded;
+``not_visible``
+    never fully visible, not decoded.
+
+An emission decoded in two frames keeps its best verdict (ok, then
+undetected_error, then corrupted). A decode that matches no emission is a
+*false decode*.
+
+Rates in the summary:
+
+* ``error_rate``: 1 − ok / fully visible, among the fully visible emissions;
+* ``missed_rate``: missed / fully visible;
+* ``undetected_error_rate``: undetected errors / decodes whose check passed;
+* ``false_decodes_per_1000_frames``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rollsim.errors import RollsimError
+
+OUTCOMES = ("ok", "undetected_error", "corrupted", "missed", "not_visible")
+OUTCOME_COLUMNS = ("tx", "sequence", "outcome", "success", "frame", "fully_visible", "decodes", "start_s", "end_s")
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Outcomes, false decodes and their summary.
+
+    Attributes
+    ----------
+    outcomes : list of dict
+        One row per emission, columns :data:`OUTCOME_COLUMNS`, in tx order.
+    false_decodes : list of dict
+        The decoded records that match no emission.
+    summary : dict
+    """
+
+    outcomes: list
+    false_decodes: list
+    summary: dict
+
+
+def read_jsonl(path: Path) -> list[dict]:
+    """Records of a JSON-lines file, with one-line errors naming file and line."""
+    path = Path(path)
+    try:
+        lines = path.read_text(encoding="utf-8").splitlines()
+    except FileNotFoundError:
+        raise RollsimError(f"{path}: not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise RollsimError(f"{path}: cannot read ({exc})") from None
+    records = []
+    for number, line in enumerate(lines, start=1):
+        if not line.strip():
+            continue
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError as exc:
+            raise RollsimError(f"{path}: line {number}: not valid JSON ({exc.msg})") from None
+    return records
+
+
+def _truth_table(truth: list[dict]) -> dict[str, np.ndarray]:
+    rows = [(t["frame"], s) for t in truth for s in t["sdus"]]
+    return {
+        "frame": np.array([f for f, _ in rows], dtype=np.int64),
+        "tx": np.array([s["tx"] for _, s in rows], dtype=np.int64),
+        "first": np.array([s["first_row_f"] for _, s in rows], dtype=np.float64),
+        "last": np.array([s["last_row_f"] for _, s in rows], dtype=np.float64),
+        "fully_visible": np.array([s["fully_visible"] for _, s in rows], dtype=bool),
+        "sequence": np.array([s["sequence"] for _, s in rows], dtype=np.int64),
+        "bits": np.array([s["bits"] for _, s in rows], dtype=object),
+    }
+
+
+def match_decodes(truth_rows: dict[str, np.ndarray], decoded: list[dict]) -> np.ndarray:
+    """Index into ``truth_rows`` of the PHY-SDU each decode matches, or -1.
+
+    A decode matches the PHY-SDU of its frame whose row span holds the
+    decode's middle row (vectorised: one sort and one search).
+    """
+    if not decoded or truth_rows["frame"].size == 0:
+        return np.full(len(decoded), -1, dtype=np.int64)
+    frames = np.array([d["frame"] for d in decoded], dtype=np.int64)
+    middle = np.array([0.5 * (d["first_row"] + d["last_row"]) for d in decoded], dtype=np.float64)
+    order = np.lexsort((truth_rows["first"], truth_rows["frame"]))
+    t_frame, t_first, t_last = (truth_rows[k][order] for k in ("frame", "first", "last"))
+    # PHY-SDUs of one frame are back to back, so their spans are sorted and
+    # disjoint: the candidate is the last one starting at or before the middle.
+    span = max(1.0, float(np.max(t_last - t_first)))
+    key_truth = t_frame * (4.0 * span + 1e6) + t_first
+    key_decode = frames * (4.0 * span + 1e6) + middle
+    candidate = np.searchsorted(key_truth, key_decode, side="right") - 1
+    ok = candidate >= 0
+    c = np.where(ok, candidate, 0)
+    ok &= (t_frame[c] == frames) & (middle >= t_first[c]) & (middle <= t_last[c])
+    return np.where(ok, order[c], -1)
+
+
+def _decode_verdict(decode: dict, sequence: int, bits: str) -> str:
+    if not decode.get("check_ok", False):
+        return "corrupted"
+    right = decode.get("sequence") == sequence and decode.get("bits") == bits
+    return "ok" if right else "undetected_error"
+
+
+def evaluate(truth: list[dict], decoded: list[dict], transmitter) -> Evaluation:
+    """Give every emission of the rendered span its outcome.
+
+    Parameters
+    ----------
+    truth : list of dict
+        Records of ``truth.jsonl``.
+    decoded : list of dict
+        Records of ``decoded.jsonl`` (``frame``, ``first_row``, ``last_row``,
+        ``sequence``, ``bits``, ``check_ok``).
+    transmitter : Transmitter
+        The scene's transmitter, for the times of emissions no frame saw.
+    """
+    rows = _truth_table(truth)
+    matched = match_decodes(rows, decoded)
+    false_decodes = [d for d, m in zip(decoded, matched.tolist()) if m < 0]
+    if rows["tx"].size == 0:
+        return Evaluation([], false_decodes, summarise([], false_decodes, len(truth)))
+
+    first_tx = int(rows["tx"].min())
+    all_tx = np.arange(first_tx, int(rows["tx"].max()) + 1)
+    n = all_tx.size
+    # Emissions fully visible in some frame are missed unless a decode says more.
+    outcome = np.full(n, OUTCOMES.index("not_visible"), dtype=np.int64)
+    frame = np.full(n, -1, dtype=np.int64)
+    fully = np.zeros(n, dtype=bool)
+    visible = np.flatnonzero(rows["fully_visible"])
+    visible = visible[np.lexsort((rows["frame"][visible], rows["tx"][visible]))]
+    tx_visible, first_seen = np.unique(rows["tx"][visible], return_index=True)  # earliest frame per tx
+    fully[tx_visible - first_tx] = True
+    frame[tx_visible - first_tx] = rows["frame"][visible[first_seen]]
+    outcome[fully] = OUTCOMES.index("missed")
+
+    hits = np.flatnonzero(matched >= 0)
+    decodes = np.bincount(rows["tx"][matched[hits]] - first_tx, minlength=n)
+    verdicts = np.array(
+        [OUTCOMES.index(_decode_verdict(decoded[i], int(rows["sequence"][matched[i]]), rows["bits"][matched[i]])) for i in hits],
+        dtype=np.int64,
+    )
+    # Best verdict per emission (lowest OUTCOMES index), then its earliest frame.
+    decode_tx = rows["tx"][matched[hits]] - first_tx
+    decode_frame = rows["frame"][matched[hits]]
+    order = np.lexsort((decode_frame, verdicts, decode_tx))
+    tx_decoded, best = np.unique(decode_tx[order], return_index=True)
+    outcome[tx_decoded] = verdicts[order][best]
+    frame[tx_decoded] = decode_frame[order][best]
+
+    starts = transmitter.emission_start_s(all_tx)
+    sequence = transmitter.schedule.sequence_numbers(all_tx)
+    outcomes = [
+        {
+            "tx": int(all_tx[i]),
+            "sequence": int(sequence[i]),
+            "outcome": OUTCOMES[outcome[i]],
+            "success": bool(outcome[i] == 0),
+            "frame": int(frame[i]),
+            "fully_visible": bool(fully[i]),
+            "decodes": int(decodes[i]),
+            "start_s": float(starts[i]),
+            "end_s": float(starts[i] + transmitter.sdu_duration_s),
+        }
+        for i in range(n)
+    ]
+    return Evaluation(outcomes, false_decodes, summarise(outcomes, false_decodes, len(truth)))
+
+
+def summarise(outcomes: list[dict], false_decodes: list, n_frames: int) -> dict:
+    """Counts and rates of an evaluation (see the module docstring)."""
+    counts = {name: 0 for name in OUTCOMES}
+    for row in outcomes:
+        counts[row["outcome"]] += 1
+    fully = sum(1 for row in outcomes if row["fully_visible"])
+    ok_fully = sum(1 for row in outcomes if row["fully_visible"] and row["outcome"] == "ok")
+    passed = counts["ok"] + counts["undetected_error"]
+    return {
+        "frames": n_frames,
+        "emissions": len(outcomes),
+        "fully_visible": fully,
+        "counts": counts,
+        "false_decodes": len(false_decodes),
+        "error_rate": (1.0 - ok_fully / fully) if fully else None,
+        "missed_rate": (counts["missed"] / fully) if fully else None,
+        "undetected_error_rate": (counts["undetected_error"] / passed) if passed else None,
+        "false_decodes_per_1000_frames": (1000.0 * len(false_decodes) / n_frames) if n_frames else None,
+    }
+
+
+def outcomes_csv(outcomes: list[dict]) -> str:
+    """The outcome table as CSV text (columns :data:`OUTCOME_COLUMNS`)."""
+    import io
+
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=OUTCOME_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for row in outcomes:
+        writer.writerow({k: (repr(v) if isinstance(v, float) else v) for k, v in row.items()})
+    return buffer.getvalue()
+
+
+def format_summary(summary: dict) -> str:
+    """A short table of an evaluation summary."""
+
+    def rate(value):
+        return "n/a" if value is None else f"{100 * value:.3f} %"
+
+    lines = [f"frames {summary['frames']}, emissions {summary['emissions']}, fully visible {summary['fully_visible']}"]
+    lines += [f"  {name:<17} {count}" for name, count in summary["counts"].items()]
+    lines += [
+        f"  {'false decodes':<17} {summary['false_decodes']}",
+        f"error rate (fully visible)      {rate(summary['error_rate'])}",
+        f"missed rate (fully visible)     {rate(summary['missed_rate'])}",
+        f"undetected-error rate (passed)  {rate(summary['undetected_error_rate'])}",
+        "false decodes per 1000 frames   "
+        + ("n/a" if summary["false_decodes_per_1000_frames"] is None else f"{summary['false_decodes_per_1000_frames']:.2f}"),
+    ]
+    return "\n".join(lines)
