@@ -131,6 +131,51 @@ def cmd_bench(args) -> int:
     return args.bench_main(args)
 
 
+def cmd_simulate(args) -> int:
+    """Broadcast the scene's message over a channel model, in many runs."""
+    from tqdm import tqdm
+
+    from rollsim.channel.eventsim import to_camcomsim
+    from rollsim.channel.scene_channel import simulate_scene
+
+    scene = _load_scene_args(args)
+    try:
+        with tqdm(total=args.runs, unit="run", desc=f"simulate {args.channel}", disable=args.quiet or None) as bar:
+            result = simulate_scene(
+                scene, args.channel, runs=args.runs, seed=args.seed, max_emissions=args.max_emissions,
+                workers=args.workers, progress=bar.update,
+            )
+    except ValueError as exc:
+        raise RollsimError(f"{scene.name}: {exc}") from None
+    summary = result.summary()
+    payload = to_camcomsim(result) if args.format == "camcomsim" else {"summary": summary}
+    if args.json:
+        _write_text(args.json, json.dumps(payload, indent=2, allow_nan=False) + "\n")
+    print(_format_simulation(summary, args.channel))
+    return EXIT_OK
+
+
+def _format_simulation(summary: dict, channel: str) -> str:
+    lines = [
+        f"{channel} channel, {summary['strategy'].upper()} r={summary['repeats']}, {summary['n_packets']} packets, "
+        f"{summary['runs']} runs: {summary['completed_runs']} completed (cap {summary['max_emissions']} emissions)",
+        f"{'metric':<18} {'mean':>12} {'std':>12} {'95% CI':>27}",
+    ]
+    for name, stats in summary["metrics"].items():
+        ci = stats.get("ci95")
+        ci_text = f"[{ci[0]:.5g}, {ci[1]:.5g}]" if ci else "n/a"
+        std = "n/a" if stats.get("std") is None else f"{stats['std']:.5g}"
+        lines.append(f"{name:<18} {stats['mean']:>12.5g} {std:>12} {ci_text:>27}")
+    lines += [f"note: {note}" for note in summary.get("notes", [])]
+    return "\n".join(lines)
+
+
+def _bench_eventsim_main(args) -> int:
+    from rollsim.bench.eventsim import main as bench_main
+
+    return bench_main(args)
+
+
 def _bench_render_main(args) -> int:
     from rollsim.bench.render import main as bench_main
 
@@ -195,6 +240,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=_positive_int, default=2, help="workers of the end-to-end runs (default 2)")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     p.set_defaults(func=cmd_bench, bench_main=_bench_render_main)
+    p = bench_sub.add_parser("eventsim", help="event simulator: emissions/s, wall time and memory of the CamComSim workload")
+    p.add_argument("--runs", type=_positive_int, default=1000, help="runs (default 1000)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
+    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.set_defaults(func=cmd_bench, bench_main=_bench_eventsim_main)
+
+    p = sub.add_parser("simulate", help="broadcast the scene's message over a channel model (CamComSim's job)")
+    p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
+    p.add_argument("--channel", choices=("mmbp", "timed", "camcomsim"), default="mmbp", help="channel model (default mmbp)")
+    p.add_argument("--runs", type=_positive_int, default=1000, help="independent runs (default 1000)")
+    p.add_argument("--seed", type=_non_negative_int, default=None, help="seed (default: the scene's)")
+    p.add_argument("--max-emissions", type=_positive_int, default=50_000, help="cap per run (default 50000, as in the paper)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
+    p.add_argument("--json", metavar="FILE", help="write the summary and parameters as JSON")
+    p.add_argument("--format", choices=("rollsim", "camcomsim"), default="rollsim",
+                   help="JSON field names: rollsim's, or CamComSim's (nbTxPhysdu, ...)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_set_option(p)
+    p.set_defaults(func=cmd_simulate)
     return parser
 
 

@@ -80,6 +80,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rollsim.channel.validation import MAX_COUNT as _MAX_COUNT
+from rollsim.channel.validation import as_count as _as_count
+from rollsim.channel.validation import as_positive as _as_positive
+from rollsim.channel.validation import as_probability as _as_probability
+
 __all__ = [
     "MmbpSlots",
     "capture_window_s",
@@ -99,9 +104,6 @@ __all__ = [
     "roi_ratio",
 ]
 
-# Counts beyond 2**53 are no longer exact as float64, and the closed forms
-# multiply counts by logs; refusing them is clearer than silent rounding.
-_MAX_COUNT = 2**53
 _STRATEGIES = ("rp", "rs")
 # Work budget (array elements touched) of mmbp_expected_emissions; beyond it
 # the call would take minutes, so it fails fast with an explanation instead.
@@ -112,45 +114,10 @@ _MAX_HYPERPERIOD = 10**7
 # ----------------------------------------------------------------------------
 # Input validation
 # ----------------------------------------------------------------------------
-def _as_count(value, name: str, minimum: int) -> int:
-    """Return ``value`` as an int >= ``minimum``; integral floats (1e6) pass."""
-    if isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
-    if isinstance(value, (float, np.floating)):
-        if not math.isfinite(value) or not float(value).is_integer():
-            raise ValueError(f"{name} must be an integer, got {value!r}")
-        value = int(value)
-    try:
-        value = int(value.__index__())
-    except (AttributeError, TypeError):
-        raise ValueError(f"{name} must be an integer, got {value!r}") from None
-    if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}")
-    if value > _MAX_COUNT:
-        raise ValueError(f"{name} must be <= 2**53, got {value}")
-    return value
 
 
-def _as_probability(value, name: str) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}") from None
-    if not 0.0 <= value <= 1.0:  # also rejects NaN
-        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}")
-    return value
 
 
-def _as_positive(value, name: str, allow_zero: bool = False) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number, got {value!r}") from None
-    ok = value >= 0.0 if allow_zero else value > 0.0
-    if not (ok and math.isfinite(value)):
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
-    return value
 
 
 def _check_cycle(M, N) -> tuple[int, int, int]:

@@ -17,27 +17,9 @@ Two facts of the reference paper meet here:
 
 from __future__ import annotations
 
+from rollsim.channel.channels import camcomsim_roi as paper_measured_roi  # the paper's Fig. 11 table
 from rollsim.optics import magnification
 from rollsim.render.setup import ambient_electron_rates, led_electron_rate
-
-# CamComSim's measured ROI table (paper Fig. 11), indexed by int(d/5 + 0.5), d in cm.
-PAPER_ROI_BY_5CM = (
-    1.0,
-    0.98452928286029235,
-    0.72436947075060389,
-    0.52775098804825378,
-    0.42458059355383677,
-    0.31179044636046831,
-    0.25630101117437368,
-    0.16225149678257165,
-    0.05831170015338602,
-)
-
-
-def paper_measured_roi(distance_cm: float) -> float:
-    """The paper's measured ROI ratio at ``distance_cm`` (0 past 40 cm)."""
-    index = int(distance_cm / 5 + 0.5)
-    return PAPER_ROI_BY_5CM[index] if index < len(PAPER_ROI_BY_5CM) else 0.0
 
 
 def effective_led_size_mm(scene, roi: float) -> float:

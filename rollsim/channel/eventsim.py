@@ -1,0 +1,464 @@
+"""Event simulator: broadcast a message over a channel until it is received whole.
+
+This is CamComSim's job (paper §6.2.3), vectorised and reproducible. A
+transmitter cycles endlessly through the emission order of a strategy
+(:class:`rollsim.transmitter.Schedule`: RP or RS, every run starting at
+tx 0); a channel (:mod:`rollsim.channel.channels`) decides the outcome of
+each emission. A run stops when every packet has been received at least
+once (the message is complete) or when ``max_emissions`` PHY-SDUs have been
+sent (then the run is *capped*: ``completed = False`` and goodput 0).
+``n_r`` independent runs give the distribution of each metric.
+
+Per run
+-------
+``emissions``
+    PHY-SDUs sent, the completing one included (``max_emissions`` if capped).
+``receptions``
+    Emissions received (duplicates included).
+``unique_receptions``
+    Distinct packets received (``n_packets`` when completed).
+``gap_losses``
+    Emissions not wholly inside a capture window (IFG or OFF slot).
+``decode_errors``
+    Emissions inside a window but wrongly decoded (probability ``p_e``).
+``duration_s``
+    ``emissions x`` the channel's emission duration, seconds.
+``goodput_bps``
+    ``P * unique_receptions / duration_s`` if completed, else 0 (CamComSim).
+``throughput_bps``
+    ``(H + P) * receptions / duration_s`` (CamComSim), capped runs included.
+
+Reproducibility
+---------------
+One seed drives everything: run ``k`` uses child ``k`` of
+``numpy.random.SeedSequence(seed)`` (``SeedSequence(seed).spawn(runs)[k]``),
+whatever the number of runs, workers or chunks; nothing is seeded from the
+clock. Each run draws its emissions in blocks of a size schedule that depends
+only on the round length ``r * n_packets``, never on ``max_emissions``, so a
+run capped at ``K`` emissions sees exactly the first ``K`` outcomes of the
+same run uncapped.
+
+Speed
+-----
+No Python loop per emission: each block of emissions is one set of array
+operations (outcomes, sequence numbers of the received ones, first reception
+of each new packet through ``np.unique``), and a run stops at the block in
+which the message completes. Runs are split into chunks over a process pool.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+from scipy.special import stdtrit
+
+from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, _as_count
+from rollsim.transmitter.schedule import Schedule
+
+__all__ = [
+    "CAMCOMSIM_FIELDS",
+    "DEFAULT_MAX_EMISSIONS",
+    "METRICS",
+    "BroadcastResult",
+    "run_seed_sequence",
+    "simulate_broadcast",
+    "summarize",
+    "summary_statistics",
+    "to_camcomsim",
+]
+
+# The paper's cap (§6.3.1): "we stop the simulation when 50000 PHY-SDU are sent".
+DEFAULT_MAX_EMISSIONS = 50_000
+METRICS = (
+    "emissions",
+    "receptions",
+    "unique_receptions",
+    "gap_losses",
+    "decode_errors",
+    "duration_s",
+    "goodput_bps",
+    "throughput_bps",
+)
+# rollsim metric -> CamComSim's JSON field (SimulationResult.java), spelling kept.
+CAMCOMSIM_FIELDS = {
+    "emissions": "nbTxPhysdu",
+    "unique_receptions": "nbRxUniquePhysdu",
+    "receptions": "nbRxPhysdu",
+    "gap_losses": "nbInterFgError",
+    "decode_errors": "nbIntraFError",
+    "duration_100us": "duration100Us",
+    "goodput_bps": "goodputBps",
+    "throughput_bps": "througputBps",
+}
+
+# Block sizes: the first block covers about one round (small messages do not
+# draw thousands of unused outcomes), later ones double up to _MAX_BLOCK
+# (long runs amortise the per-block overhead, memory stays bounded).
+_MIN_BLOCK = 256
+_MAX_BLOCK = 4096
+# Columns of the per-chunk integer table.
+_COUNTS = ("emissions", "receptions", "unique_receptions", "gap_losses", "decode_errors", "completed")
+
+
+def run_seed_sequence(seed: int, run: int) -> np.random.SeedSequence:
+    """Seed sequence of run ``run``: child ``run`` of ``SeedSequence(seed)``.
+
+    Equal to ``np.random.SeedSequence(seed).spawn(n)[run]`` for any
+    ``n > run``, built directly so that a worker needs no other child.
+    """
+    return np.random.SeedSequence(seed, spawn_key=(run,))
+
+
+def _block_sizes(emissions_per_round: int):
+    """Endless block-size schedule of one run (depends on the round only)."""
+    size = min(_MAX_BLOCK, max(_MIN_BLOCK, 1 << max(0, emissions_per_round - 1).bit_length()))
+    while True:
+        yield size
+        size = min(2 * size, _MAX_BLOCK)
+
+
+def _simulate_run(channel, schedule: Schedule, max_emissions: int, seed_sequence) -> tuple[int, ...]:
+    """One broadcast: ``(emissions, receptions, unique, gaps, errors, completed)``."""
+    run = channel.open_run(seed_sequence)
+    n = schedule.n_packets
+    have = np.zeros(n, dtype=bool)
+    n_have = 0
+    counts = np.zeros(3, dtype=np.int64)  # per outcome code, emissions so far
+    start = 0
+    for size in _block_sizes(schedule.emissions_per_round):
+        codes = run.next_block(size)
+        if start + size > max_emissions:
+            codes = codes[: max_emissions - start]
+        got = np.flatnonzero(codes == RECEIVED)
+        if got.size:
+            seq = schedule.sequence_numbers(got + start)
+            fresh = ~have[seq]
+            if fresh.any():
+                # First reception in this block of each packet not held yet;
+                # np.unique returns the index of each value's first occurrence.
+                new_packets, first = np.unique(seq[fresh], return_index=True)
+                have[new_packets] = True
+                n_have += new_packets.size
+                if n_have == n:
+                    end = int(got[fresh][first].max()) + 1
+                    counts += np.bincount(codes[:end], minlength=3)
+                    return (start + end, int(counts[RECEIVED]), n, int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 1)
+        counts += np.bincount(codes, minlength=3)
+        start += codes.size
+        if start >= max_emissions:
+            return (start, int(counts[RECEIVED]), n_have, int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 0)
+    raise AssertionError("unreachable: the block schedule is endless")
+
+
+def _simulate_chunk(
+    channel, schedule: Schedule, max_emissions: int, seed: int, first_run: int, stop_run: int
+) -> np.ndarray:
+    """Runs ``first_run .. stop_run - 1`` as an int64 table, one row per run."""
+    table = np.empty((stop_run - first_run, len(_COUNTS)), dtype=np.int64)
+    for row, k in enumerate(range(first_run, stop_run)):
+        table[row] = _simulate_run(channel, schedule, max_emissions, run_seed_sequence(seed, k))
+    return table
+
+
+@dataclass(frozen=True)
+class BroadcastResult:
+    """Per-run metrics of a simulated broadcast (see the module docstring).
+
+    Attributes
+    ----------
+    channel : dict
+        The channel's parameters (``kind`` and its own fields).
+    strategy : str
+    n_packets : int
+    repeats : int
+    header_bits, payload_bits : int
+        ``H`` and ``P`` in bits, for throughput and goodput.
+    seed : int
+    max_emissions : int
+    emission_duration_s : float
+        Clock advance per emission, seconds.
+    emission_duration_100us : float
+        The same in CamComSim's unit of 100 us (an integer for ``camcomsim``).
+    emissions, receptions, unique_receptions, gap_losses, decode_errors : ndarray of int64
+    duration_s, goodput_bps, throughput_bps : ndarray of float64
+    completed : ndarray of bool
+    notes : tuple of str
+        Caveats of the channel (e.g. CamComSim's units).
+    """
+
+    channel: dict
+    strategy: str
+    n_packets: int
+    repeats: int
+    header_bits: int
+    payload_bits: int
+    seed: int
+    max_emissions: int
+    emission_duration_s: float
+    emission_duration_100us: float
+    emissions: np.ndarray
+    receptions: np.ndarray
+    unique_receptions: np.ndarray
+    gap_losses: np.ndarray
+    decode_errors: np.ndarray
+    duration_s: np.ndarray
+    goodput_bps: np.ndarray
+    throughput_bps: np.ndarray
+    completed: np.ndarray
+    notes: tuple = field(default=())
+
+    @property
+    def runs(self) -> int:
+        return int(self.emissions.size)
+
+    @property
+    def duration_100us(self) -> np.ndarray:
+        """Duration in 100 us units, ``emissions x emission_duration_100us``."""
+        return self.emissions * self.emission_duration_100us
+
+    def completed_within(self, emissions: int) -> np.ndarray:
+        """Per run: was the message complete within the first ``emissions``?
+
+        Exact for any ``emissions <= max_emissions``: a capped run is a
+        prefix of the same run uncapped (see the module docstring), so
+        ``simulate_broadcast(..., max_emissions=K).completed`` equals
+        ``result.completed_within(K)`` for the same seed.
+        """
+        k = _as_count(emissions, "emissions", 0)
+        if k > self.max_emissions:
+            raise ValueError(f"emissions must be <= max_emissions = {self.max_emissions}, got {k}")
+        return self.completed & (self.emissions <= k)
+
+    def metrics(self) -> dict[str, np.ndarray]:
+        """``{name: per-run array}`` for every name of :data:`METRICS`."""
+        return {name: getattr(self, name) for name in METRICS}
+
+    def summary(self) -> dict:
+        """JSON-ready summary; see :func:`summarize`."""
+        return summarize(self)
+
+
+def _check_seed(seed) -> int:
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    if seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed}")
+    return int(seed)
+
+
+def _check_channel(channel) -> None:
+    if not all(hasattr(channel, name) for name in ("open_run", "kind", "emission_duration_s", "parameters")):
+        raise ValueError(f"channel must be one of the rollsim.channel.channels models, got {channel!r}")
+
+
+def simulate_broadcast(
+    channel,
+    schedule: Schedule,
+    *,
+    header_bits: int,
+    payload_bits: int,
+    runs: int = 1000,
+    seed: int = 0,
+    max_emissions: int = DEFAULT_MAX_EMISSIONS,
+    workers: Optional[int] = None,
+    chunk_runs: Optional[int] = None,
+    progress: Optional[Callable[[int], object]] = None,
+) -> BroadcastResult:
+    """Broadcast a message over ``channel`` until it is complete, ``runs`` times.
+
+    Parameters
+    ----------
+    channel : MmbpChannel, TimedChannel or CamcomsimChannel
+        The channel model (:mod:`rollsim.channel.channels`).
+    schedule : rollsim.transmitter.Schedule
+        Strategy, packets and repeats: the endless emission order.
+    header_bits, payload_bits : int
+        ``H`` and ``P`` in bits: throughput counts ``H + P`` per reception,
+        goodput ``P`` per distinct packet.
+    runs : int, default 1000
+        Independent runs ``n_r``, >= 1.
+    seed : int, default 0
+        Non-negative seed; run ``k`` uses ``SeedSequence(seed).spawn(runs)[k]``.
+    max_emissions : int, default 50000
+        Cap on emissions per run, >= 1. A capped run has ``completed =
+        False`` and goodput 0.
+    workers : int, optional
+        Processes; default ``min(2, os.cpu_count())``. ``1`` runs in this
+        process. Results are identical for any value.
+    chunk_runs : int, optional
+        Runs per task of the pool (and per progress call); default
+        ``ceil(runs / (8 * workers))``. Results do not depend on it.
+    progress : callable, optional
+        Called as ``progress(n)`` with the number of runs of each finished
+        chunk, e.g. ``tqdm(total=runs).update``.
+
+    Returns
+    -------
+    BroadcastResult
+
+    Raises
+    ------
+    ValueError
+        For invalid parameters, naming the parameter.
+    """
+    _check_channel(channel)
+    if not isinstance(schedule, Schedule):
+        raise ValueError(f"schedule must be a rollsim.transmitter.Schedule, got {schedule!r}")
+    header_bits = _as_count(header_bits, "header_bits", 0)
+    payload_bits = _as_count(payload_bits, "payload_bits", 1)
+    runs = _as_count(runs, "runs", 1)
+    seed = _check_seed(seed)
+    max_emissions = _as_count(max_emissions, "max_emissions", 1)
+    workers = min(2, os.cpu_count() or 1) if workers is None else _as_count(workers, "workers", 1)
+    chunk = max(1, math.ceil(runs / (8 * workers))) if chunk_runs is None else _as_count(chunk_runs, "chunk_runs", 1)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be callable, got {progress!r}")
+
+    bounds = [(lo, min(lo + chunk, runs)) for lo in range(0, runs, chunk)]
+    tables: list = [None] * len(bounds)
+    args = (channel, schedule, max_emissions, seed)
+    if workers == 1 or len(bounds) == 1:
+        for i, (lo, hi) in enumerate(bounds):
+            tables[i] = _simulate_chunk(*args, lo, hi)
+            if progress is not None:
+                progress(hi - lo)
+    else:
+        with ProcessPoolExecutor(max_workers=min(workers, len(bounds))) as pool:
+            futures = {pool.submit(_simulate_chunk, *args, lo, hi): i for i, (lo, hi) in enumerate(bounds)}
+            for future in as_completed(futures):
+                i = futures[future]
+                tables[i] = future.result()
+                if progress is not None:
+                    progress(bounds[i][1] - bounds[i][0])
+    table = np.concatenate(tables, axis=0)
+    return _result_from_table(table, channel, schedule, header_bits, payload_bits, seed, max_emissions)
+
+
+def _result_from_table(table, channel, schedule, header_bits, payload_bits, seed, max_emissions) -> BroadcastResult:
+    columns = {name: table[:, j].copy() for j, name in enumerate(_COUNTS)}
+    completed = columns.pop("completed").astype(bool)
+    duration_s = columns["emissions"] * channel.emission_duration_s  # emissions >= 1: duration > 0
+    goodput = np.where(completed, payload_bits * columns["unique_receptions"] / duration_s, 0.0)
+    throughput = (header_bits + payload_bits) * columns["receptions"] / duration_s
+    return BroadcastResult(
+        channel=channel.parameters(),
+        strategy=schedule.strategy,
+        n_packets=schedule.n_packets,
+        repeats=schedule.repeats,
+        header_bits=header_bits,
+        payload_bits=payload_bits,
+        seed=seed,
+        max_emissions=max_emissions,
+        emission_duration_s=float(channel.emission_duration_s),
+        emission_duration_100us=float(channel.emission_duration_100us),
+        duration_s=duration_s,
+        goodput_bps=goodput,
+        throughput_bps=throughput,
+        completed=completed,
+        notes=tuple(channel.notes),
+        **columns,
+    )
+
+
+# ----------------------------------------------------------------------------
+# Summaries
+# ----------------------------------------------------------------------------
+def summary_statistics(values, confidence: float = 0.95) -> dict:
+    """Mean, sample standard deviation and Student-t confidence interval.
+
+    Parameters
+    ----------
+    values : array_like
+        One value per run.
+    confidence : float, default 0.95
+        Two-sided level of the interval, in (0, 1).
+
+    Returns
+    -------
+    dict
+        ``{"mean", "std", "ci95": [low, high]}`` (key ``ci<level>``) as
+        Python floats. ``std`` uses ``ddof = 1``; with a single value
+        ``std`` and the interval are ``None`` (undefined, not NaN).
+    """
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence!r}")
+    x = np.asarray(values, dtype=float)
+    if x.ndim != 1 or x.size == 0:
+        raise ValueError(f"values must be a non-empty 1-D array, got shape {x.shape}")
+    key = f"ci{round(100 * confidence):d}"
+    mean = float(x.mean())
+    if x.size == 1:
+        return {"mean": mean, "std": None, key: None}
+    std = float(x.std(ddof=1))
+    # stdtrit: the Student-t quantile, without importing scipy.stats (0.6 s).
+    half = float(stdtrit(x.size - 1, 0.5 + confidence / 2.0)) * std / math.sqrt(x.size)
+    return {"mean": mean, "std": std, key: [mean - half, mean + half]}
+
+
+def summarize(result: BroadcastResult) -> dict:
+    """JSON-ready summary of a :class:`BroadcastResult`.
+
+    Returns
+    -------
+    dict
+        The set-up (channel parameters, strategy, packets, repeats, ``H``,
+        ``P``, runs, seed, cap), ``completed_runs`` and
+        ``completed_fraction``, ``metrics``: ``{name: summary_statistics}``
+        over all runs (capped ones included, with goodput 0), and ``notes``.
+    """
+    completed = int(result.completed.sum())
+    return {
+        "channel": dict(result.channel),
+        "strategy": result.strategy,
+        "n_packets": result.n_packets,
+        "repeats": result.repeats,
+        "header_bits": result.header_bits,
+        "payload_bits": result.payload_bits,
+        "runs": result.runs,
+        "seed": result.seed,
+        "max_emissions": result.max_emissions,
+        "completed_runs": completed,
+        "completed_fraction": completed / result.runs,
+        "metrics": {name: summary_statistics(values) for name, values in result.metrics().items()},
+        "notes": list(result.notes),
+    }
+
+
+def to_camcomsim(result: BroadcastResult) -> dict:
+    """The result with CamComSim's field names, per run and in the summary.
+
+    Fields: ``nbTxPhysdu`` (emissions), ``nbRxUniquePhysdu``, ``nbRxPhysdu``,
+    ``nbInterFgError`` (gap losses), ``nbIntraFError`` (decode errors),
+    ``duration100Us``, ``goodputBps``, ``througputBps`` (CamComSim's
+    spelling) and ``isGenerationRx`` (completed).
+
+    Returns
+    -------
+    dict
+        ``{"runs": [per-run dict, ...], "summary": {field:
+        summary_statistics}, "completed_fraction", "notes", "parameters"}``,
+        JSON-ready.
+    """
+    columns = {camcomsim: getattr(result, name) for name, camcomsim in CAMCOMSIM_FIELDS.items()}
+    as_python = {
+        field_name: (values.tolist() if values.dtype.kind in "iu" else [float(v) for v in values])
+        for field_name, values in columns.items()
+    }
+    completed = result.completed.tolist()
+    rows = [
+        {**{field_name: as_python[field_name][i] for field_name in columns}, "isGenerationRx": completed[i]}
+        for i in range(result.runs)
+    ]
+    summary = summarize(result)
+    return {
+        "runs": rows,
+        "summary": {camcomsim: summary_statistics(values) for camcomsim, values in columns.items()},
+        "completed_fraction": summary["completed_fraction"],
+        "parameters": {key: summary[key] for key in summary if key not in ("metrics", "notes", "completed_fraction")},
+        "notes": summary["notes"],
+    }

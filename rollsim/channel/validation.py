@@ -1,0 +1,54 @@
+"""Validation of the channel layer's numeric inputs, with errors naming the parameter."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# Counts beyond 2**53 are no longer exact as float64, and the closed forms
+# multiply counts by logs; refusing them is clearer than silent rounding.
+MAX_COUNT = 2**53
+
+
+def as_count(value, name: str, minimum: int = 0) -> int:
+    """``value`` as an int >= ``minimum``; integral floats (1e6) pass, bools do not."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    if isinstance(value, (float, np.floating)):
+        if not math.isfinite(value) or not float(value).is_integer():
+            raise ValueError(f"{name} must be an integer, got {value!r}")
+        value = int(value)
+    try:
+        value = int(value.__index__())
+    except (AttributeError, TypeError):
+        raise ValueError(f"{name} must be an integer, got {value!r}") from None
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if value > MAX_COUNT:
+        raise ValueError(f"{name} must be <= 2**53, got {value}")
+    return value
+
+
+def as_probability(value, name: str) -> float:
+    """``value`` as a float in [0, 1] (NaN rejected)."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}") from None
+    if not 0.0 <= value <= 1.0:  # also rejects NaN
+        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}")
+    return value
+
+
+def as_positive(value, name: str, allow_zero: bool = False) -> float:
+    """``value`` as a finite float > 0 (or >= 0 with ``allow_zero``)."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number, got {value!r}") from None
+    ok = value >= 0.0 if allow_zero else value > 0.0
+    if not (ok and math.isfinite(value)):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
+    return value
