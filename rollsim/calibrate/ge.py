@@ -1,0 +1,189 @@
+"""Gilbert-Elliott fit of a success/failure trace: exact likelihood, MoM and ML.
+
+Convention of :func:`rollsim.channel.analytic.ge_stationary`: S1 captures
+(success with probability 1 − p_e), S2 is the gap (never succeeds),
+p = P(S2 → S1), q = P(S1 → S2), stationary start.
+
+A success pins the chain to S1, so the likelihood factorises over the gaps
+between successes: after a success, L failures and the next success have
+probability g(L) = [(T D₀)^L T]₁₁ · (1 − p_e), with T the transition matrix
+and D₀ = diag(p_e, 1) the failure emission. The trace's likelihood is the
+product of g over its gaps, times the opening segment (stationary start up to
+the first success) and the closing one (failures after the last). Powers of
+the 2 × 2 matrix are taken by log-scaled squaring for every distinct gap
+length at once, so a trace of any length costs O(distinct gaps × log L).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.special import expit, logit
+
+# Parameters are kept this far from 0 and 1 during optimisation.
+_EDGE = 1e-9
+
+
+@dataclass(frozen=True)
+class GeFit:
+    """Gilbert-Elliott parameters and their log-likelihood on the trace."""
+
+    p: float
+    q: float
+    p_e: float
+    loglik: float
+    method: str
+
+    def as_dict(self) -> dict:
+        return {"p": self.p, "q": self.q, "p_e": self.p_e, "loglik": self.loglik, "method": self.method}
+
+
+def _gaps(success: np.ndarray) -> tuple[np.ndarray, int, int, int]:
+    """Failure counts between successes, before the first and after the last."""
+    idx = np.flatnonzero(success)
+    if idx.size == 0:
+        return np.zeros(0, dtype=np.int64), -1, -1, success.size
+    return np.diff(idx) - 1, int(idx[0]), int(success.size - 1 - idx[-1]), 0
+
+
+def _log_matrix_powers(A: np.ndarray, exponents: np.ndarray):
+    """A**L for each L, as (mantissa matrices, log scale): A**L = M · exp(s)."""
+    k = exponents.size
+    result = np.broadcast_to(np.eye(2), (k, 2, 2)).copy()
+    log_scale = np.zeros(k)
+    power, power_log = A.copy(), 0.0
+    remaining = exponents.copy()
+    while np.any(remaining > 0):
+        use = (remaining & 1).astype(bool)
+        if use.any():
+            result[use] = result[use] @ power
+            norm = np.abs(result[use]).max(axis=(1, 2))
+            norm = np.where(norm > 0, norm, 1.0)
+            result[use] /= norm[:, None, None]
+            log_scale[use] += np.log(norm) + power_log
+        remaining >>= 1
+        power = power @ power
+        norm = np.abs(power).max()
+        if norm == 0:
+            power_log = -np.inf
+            power = np.zeros((2, 2))
+        else:
+            power /= norm
+            power_log = 2 * power_log + np.log(norm)
+    return result, log_scale
+
+
+def _safe_log(x):
+    with np.errstate(divide="ignore"):
+        return np.log(x)
+
+
+def ge_loglik(success, p: float, q: float, p_e: float) -> float:
+    """Exact log-likelihood of a 0/1 trace under Gilbert-Elliott (p, q, p_e)."""
+    success = np.asarray(success, dtype=bool)
+    T = np.array([[1 - q, q], [p, 1 - p]])
+    pi = np.array([p, q]) / (p + q)
+    D0 = np.array([p_e, 1.0])
+    A = T * D0[None, :]  # T D0: transition, then a failure
+    gaps, opening, closing, none = _gaps(success)
+    if none:
+        # No success at all: π D0 (T D0)^(n-1) 1.
+        mats, logs = _log_matrix_powers(A, np.array([none - 1]))
+        value = (pi * D0) @ mats[0] @ np.ones(2)
+        return float(_safe_log(value) + logs[0])
+    total = 0.0
+    # Opening: stationary start, `opening` failures, then a success in S1:
+    # π D0 (T D0)^(opening-1) T D1 with D1 = diag(1 - p_e, 0).
+    if opening == 0:
+        total += float(_safe_log(pi[0] * (1 - p_e)))
+    else:
+        mats, logs = _log_matrix_powers(A, np.array([opening - 1]))
+        v = (pi * D0) @ mats[0] @ T
+        total += float(_safe_log(v[0] * (1 - p_e)) + logs[0])
+    # Gaps between successes: g(L) = [(T D0)^L T]_11 (1 - p_e).
+    if gaps.size:
+        lengths, counts = np.unique(gaps, return_counts=True)
+        mats, logs = _log_matrix_powers(A, lengths)
+        g = (mats @ T)[:, 0, 0] * (1 - p_e)
+        total += float(np.sum(counts * (_safe_log(g) + logs)))
+    # Closing: from S1, `closing` more failures: e1 (T D0)^closing 1.
+    if closing > 0:
+        mats, logs = _log_matrix_powers(A, np.array([closing]))
+        total += float(_safe_log(mats[0][0].sum()) + logs[0])
+    return total
+
+
+def ge_method_of_moments(success) -> GeFit:
+    """Closed-form moment estimates from P(x=1), P(x_t=x_{t+1}=1), P(x_t=x_{t+2}=1).
+
+    With s = π₁(1 − p_e), λ = 1 − p − q and x = 1 − p_e:
+    c₁/s = s + (x − s)λ and c₂/s = s + (x − s)λ², so λ = (c₂/s − s)/(c₁/s − s),
+    x = s + (c₁/s − s)/λ, π₁ = s/x, p = π₁(1 − λ), q = (1 − π₁)(1 − λ).
+    Estimates are clipped into the parameter space.
+    """
+    x = np.asarray(success, dtype=float)
+    if x.size < 3:
+        raise ValueError("the trace needs at least 3 emissions for moment estimates")
+    s = x.mean()
+    if s == 0 or s == 1:
+        p_e = 1.0 if s == 0 else 0.0
+        p, q = (_EDGE, 1 - _EDGE) if s == 0 else (1 - _EDGE, _EDGE)
+        return GeFit(p, q, p_e, ge_loglik(x > 0, p, q, p_e), "moments")
+    c1 = np.mean(x[:-1] * x[1:])
+    c2 = np.mean(x[:-2] * x[2:])
+    a, b = c1 / s - s, c2 / s - s
+    # λ = 0 (a memoryless chain) leaves x undetermined by these moments:
+    # take p_e = 0 then.
+    lam = float(np.clip(b / a, -1 + _EDGE, 1 - _EDGE)) if a != 0 else 0.0
+    x1 = float(np.clip(s + a / lam, s, 1.0)) if lam != 0 else 1.0
+    p_e = float(np.clip(1 - x1, 0.0, 1.0))
+    pi1 = float(np.clip(s / x1, _EDGE, 1 - _EDGE))
+    p = float(np.clip(pi1 * (1 - lam), _EDGE, 1 - _EDGE))
+    q = float(np.clip((1 - pi1) * (1 - lam), _EDGE, 1 - _EDGE))
+    return GeFit(p, q, p_e, ge_loglik(x > 0, p, q, p_e), "moments")
+
+
+def _to_unit(z):
+    return _EDGE + (1 - 2 * _EDGE) * expit(z)
+
+
+def _from_unit(u):
+    return logit(np.clip((np.asarray(u) - _EDGE) / (1 - 2 * _EDGE), 1e-12, 1 - 1e-12))
+
+
+def fit_ge(success) -> GeFit:
+    """Maximum-likelihood Gilbert-Elliott parameters of a 0/1 trace.
+
+    Direct optimisation of :func:`ge_loglik` over logit-transformed (p, q,
+    p_e), started from the moment estimates and a few spread points; the
+    best optimum is kept.
+    """
+    success = np.asarray(success, dtype=bool)
+    if success.size == 0:
+        raise ValueError("the trace is empty")
+    rate = success.mean()
+    if rate in (0.0, 1.0):
+        # All failures or all successes: the likelihood is maximised at the
+        # edge (p_e = 1 or p_e = 0 with the chain never leaving S1).
+        mom = ge_method_of_moments(success) if success.size >= 3 else None
+        p, q, p_e = (_EDGE, 1 - _EDGE, 1.0) if rate == 0 else (1 - _EDGE, _EDGE, 0.0)
+        return GeFit(p, q, p_e, ge_loglik(success, p, q, p_e) if mom is None else mom.loglik, "maximum likelihood")
+
+    def objective(z):
+        value = ge_loglik(success, *_to_unit(z))
+        return -value if np.isfinite(value) else 1e300
+
+    starts = [(0.5, 0.5, 0.1), (0.1, 0.1, 0.01), (0.9, 0.1, 0.001), (0.3, 0.05, 0.05)]
+    if success.size >= 3:
+        mom = ge_method_of_moments(success)
+        starts.insert(0, (mom.p, mom.q, max(mom.p_e, 1e-6)))
+    best = None
+    for start in starts:
+        result = minimize(objective, _from_unit(np.array(start)), method="Nelder-Mead",
+                          options={"xatol": 1e-7, "fatol": 1e-9, "maxiter": 4000})
+        if best is None or result.fun < best.fun:
+            best = result
+    p, q, p_e = (float(v) for v in _to_unit(best.x))
+    return GeFit(p, q, p_e, -float(best.fun), "maximum likelihood")

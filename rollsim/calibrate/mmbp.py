@@ -1,0 +1,204 @@
+"""MMBP fit of a success/failure trace: integer M and N, phase, p_e.
+
+Under the MMBP an emission in an OFF slot never succeeds, and one in an ON
+slot succeeds with probability 1 − p_e. For a given cycle, the ON slots must
+therefore cover every success; adding ON slots that hold only failures can
+only lower the maximised likelihood, so the maximum-likelihood ON set is the
+shortest circular arc that covers every success. p_e is then the failure
+fraction among ON emissions, with a Clopper-Pearson 95% interval.
+
+Two ways to place emissions on the cycle:
+
+``fit_mmbp_cycle``
+    a pure trace: emission k sits in slot (k + φ) mod C; every cycle length
+    C from 1 to n/20 is tried and the best likelihood wins (ties go to the
+    shortest C). Each slot must be seen at least 20 times: with fewer, a
+    slot whose emissions all failed by chance would be excluded from the ON
+    set and a long cycle would overfit.
+``fit_mmbp_aligned``
+    where frame start times are known (rendered data): each emission's start
+    is placed within its frame period, [0, T_f), so the camera's frame clock,
+    not a slot count, sets the phase. This is the per-frame alignment that a
+    non-integer T_f / T_p needs. The ON set is the shortest arc of start
+    offsets covering every success; its length over T_p is the fractional
+    mean number of whole PHY-SDUs per frame, and M = round of it,
+    C = round(T_f / T_p), N = C − M.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import beta
+
+
+# Emissions each slot must hold for the cycle fit (see fit_mmbp_cycle).
+MIN_PER_SLOT = 20
+
+
+@dataclass(frozen=True)
+class MmbpFit:
+    """A fitted MMBP.
+
+    Attributes
+    ----------
+    M, N : int
+        ON and OFF slots per cycle.
+    p_e : float
+        PHY-SDU error probability in ON slots.
+    p_e_ci95 : (float, float)
+        Clopper-Pearson 95% interval of p_e.
+    loglik : float
+        Maximised log-likelihood of the trace.
+    phase : float
+        Cycle phase: the slot of emission 0 (cycle fit), or the start of the
+        ON arc within the frame in seconds (aligned fit).
+    mean_on_per_frame : float
+        Fractional mean number of ON (fully received) slots per frame.
+    on_emissions, on_failures : int
+        Emissions in ON slots and the failures among them.
+    method : str
+    """
+
+    M: int
+    N: int
+    p_e: float
+    p_e_ci95: tuple
+    loglik: float
+    phase: float
+    mean_on_per_frame: float
+    on_emissions: int
+    on_failures: int
+    method: str
+
+    def as_dict(self) -> dict:
+        return {
+            "M": self.M,
+            "N": self.N,
+            "p_e": self.p_e,
+            "p_e_ci95": list(self.p_e_ci95),
+            "loglik": self.loglik,
+            "phase": self.phase,
+            "mean_on_per_frame": self.mean_on_per_frame,
+            "on_emissions": self.on_emissions,
+            "on_failures": self.on_failures,
+            "method": self.method,
+        }
+
+
+def clopper_pearson(failures: int, trials: int, level: float = 0.95) -> tuple[float, float]:
+    """Exact binomial interval of a proportion (0 and 1 handled exactly)."""
+    if trials <= 0:
+        raise ValueError("trials must be >= 1")
+    alpha = 1.0 - level
+    low = 0.0 if failures == 0 else float(beta.ppf(alpha / 2, failures, trials - failures + 1))
+    high = 1.0 if failures == trials else float(beta.ppf(1 - alpha / 2, failures + 1, trials - failures))
+    return low, high
+
+
+def bernoulli_loglik(failures: int, trials: int) -> float:
+    """Maximised log-likelihood of ``failures`` in ``trials`` (0·log 0 = 0)."""
+    successes = trials - failures
+    total = 0.0
+    for count in (failures, successes):
+        if count:
+            total += count * math.log(count / trials)
+    return total
+
+
+def _shortest_covering_arc(occupied: np.ndarray) -> tuple[int, int]:
+    """Start and length of the shortest circular arc of slots covering every True."""
+    size = occupied.size
+    marks = np.flatnonzero(occupied)
+    if marks.size == 0:
+        return 0, 0
+    # The arc is the circle minus its longest run of unoccupied slots.
+    gaps = np.diff(np.r_[marks, marks[0] + size]) - 1
+    widest = int(np.argmax(gaps))
+    start = int(marks[(widest + 1) % marks.size])
+    return start, size - int(gaps[widest])
+
+
+def _check_trace(success: np.ndarray) -> np.ndarray:
+    success = np.asarray(success, dtype=bool)
+    if success.size == 0:
+        raise ValueError("the trace is empty")
+    if not success.any():
+        raise ValueError("the trace has no success: M and p_e cannot be told apart (any M with p_e = 1 fits)")
+    return success
+
+
+def _fit(M, N, failures, trials, phase, mean_on, method) -> MmbpFit:
+    return MmbpFit(
+        int(M), int(N), failures / trials, clopper_pearson(failures, trials), bernoulli_loglik(failures, trials),
+        float(phase), float(mean_on), int(trials), int(failures), method,
+    )
+
+
+def fit_mmbp_cycle(success, max_cycle: int | None = None) -> MmbpFit:
+    """Integer-cycle MMBP fit of a pure trace (see the module docstring).
+
+    Parameters
+    ----------
+    success : array_like of bool
+        One entry per emission, in emission order.
+    max_cycle : int, optional
+        Longest cycle tried; default n // 20 (see the module docstring).
+    """
+    success = _check_trace(success)
+    n = success.size
+    max_cycle = max(1, n // MIN_PER_SLOT) if max_cycle is None else int(max_cycle)
+    k = np.arange(n)
+    best = None
+    for cycle in range(1, max_cycle + 1):
+        slot = k % cycle
+        start, length = _shortest_covering_arc(np.bincount(slot[success], minlength=cycle) > 0)
+        on = ((slot - start) % cycle) < length
+        trials = int(on.sum())
+        failures = trials - int(success.sum())
+        loglik = bernoulli_loglik(failures, trials)
+        if best is None or loglik > best[0] + 1e-9:
+            best = (loglik, cycle, start, length, failures, trials)
+    _, cycle, start, length, failures, trials = best
+    # Emission 0 sits (cycle - start) % cycle slots into the ON arc's cycle.
+    return _fit(length, cycle - length, failures, trials, (-start) % cycle, length, "cycle")
+
+
+def fit_mmbp_aligned(success, start_s, frame_starts_s, frame_period_s: float, sdu_duration_s: float) -> MmbpFit:
+    """Per-frame aligned MMBP fit (see the module docstring).
+
+    Parameters
+    ----------
+    success : array_like of bool
+    start_s : array_like of float
+        Emission start times, seconds.
+    frame_starts_s : array_like of float
+        Start of every frame, ascending, seconds.
+    frame_period_s, sdu_duration_s : float
+        T_f and T_p in seconds.
+    """
+    success = _check_trace(success)
+    start_s = np.asarray(start_s, dtype=np.float64)
+    frames = np.asarray(frame_starts_s, dtype=np.float64)
+    if frames.size == 0:
+        raise ValueError("no frame start times")
+    # Offset of each start within the frame period it falls in.
+    k = np.clip(np.searchsorted(frames, start_s, side="right") - 1, 0, frames.size - 1)
+    offset = np.mod(start_s - frames[k], frame_period_s)
+    # Shortest circular arc of offsets covering every success, to the
+    # resolution of a thousandth of a PHY-SDU.
+    bins = max(1, int(math.ceil(frame_period_s / (sdu_duration_s * 1e-3))))
+    index = np.minimum((offset / frame_period_s * bins).astype(np.int64), bins - 1)
+    first, length = _shortest_covering_arc(np.bincount(index[success], minlength=bins) > 0)
+    on = ((index - first) % bins) < length
+    trials = int(on.sum())
+    failures = trials - int(success.sum())
+    # Starts spread uniformly over the arc: its length over T_p, plus the
+    # one start that each arc end admits on average, is the mean count.
+    arc_s = (length - 1) * frame_period_s / bins
+    mean_on = arc_s / sdu_duration_s + 1.0 if length else 0.0
+    cycle = max(1, int(round(frame_period_s / sdu_duration_s)))
+    M = min(cycle, int(round(mean_on)))
+    return _fit(M, cycle - M, failures, trials, first * frame_period_s / bins, mean_on, "aligned")
