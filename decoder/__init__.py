@@ -2,4 +2,31 @@
 
 It imports only :mod:`rollsim.protocol` from rollsim, so that it also runs on
 frames from a real camera.
+
+Stages, one module each: :mod:`decoder.io` (reading frames),
+:mod:`decoder.region` (LED footprints), :mod:`decoder.profile` (row means),
+:mod:`decoder.binarize` (local threshold and erasures), :mod:`decoder.timing`
+(clock recovery), :mod:`decoder.framing` (SYNC, line code, check) and
+:mod:`decoder.pipeline` (the whole chain); :mod:`decoder.rowtime`
+calibrates the row time from square-wave frames.
 """
+
+from decoder.io import FrameError, FrameReadError, as_frame_array, read_frame
+from decoder.pipeline import decode_frame, decode_frames, decode_profile
+from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
+from decoder.rowtime import RowTimeError, estimate_row_time
+
+__all__ = [
+    "STATUSES",
+    "DecodedPhySdu",
+    "FrameDecode",
+    "FrameError",
+    "FrameReadError",
+    "RowTimeError",
+    "as_frame_array",
+    "decode_frame",
+    "decode_frames",
+    "decode_profile",
+    "estimate_row_time",
+    "read_frame",
+]

@@ -1,0 +1,130 @@
+"""Framing: SYNCs, line decoding and checks of recovered chips.
+
+The SYNC is R + 1 ON chips then one OFF chip (``1110`` for Manchester). A
+PHY-SDU ending in ON chips runs into its successor's SYNC and makes the ON
+run longer, so a SYNC is located by the END of an ON run of at least R + 1
+chips: its first chip is R + 1 chips before the OFF chip that closes the
+run. Coded data never holds R + 1 equal chips, so clean data has one SYNC
+per PHY-SDU. The chips after the SYNC go to
+:meth:`rollsim.protocol.PhyFormat.decode_coded`: an invalid Manchester pair
+or 4B6B word is a code error, never a guess.
+
+All candidates of a chip stream are decoded at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rollsim.protocol import PhyFormat
+
+from decoder.records import STATUSES
+from decoder.timing import ChipStream
+
+OK, CHECK_FAILED, CODE_ERROR, ERASURE, TRUNCATED = range(len(STATUSES))
+
+
+@dataclass(frozen=True)
+class SduCandidates:
+    """PHY-SDU candidates of one chip stream (one entry each).
+
+    Attributes
+    ----------
+    first_row, last_row : ndarray of float64
+        Row position (profile coordinates) of the start of the SYNC and of
+        the end of the last chip.
+    sequence : ndarray of int64
+    payload : ndarray of uint8, shape (n, payload_bits)
+    status : ndarray of int
+        Index into :data:`decoder.records.STATUSES`.
+    confidence : ndarray of float64
+    """
+
+    first_row: np.ndarray
+    last_row: np.ndarray
+    sequence: np.ndarray
+    payload: np.ndarray
+    status: np.ndarray
+    confidence: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.status.size)
+
+    @property
+    def check_ok(self) -> np.ndarray:
+        return self.status == OK
+
+
+def find_sync_starts(chip_values: np.ndarray, phy: PhyFormat) -> np.ndarray:
+    """Chip index of the first SYNC chip of every SYNC in a chip stream.
+
+    Parameters
+    ----------
+    chip_values : ndarray of int8
+        1 ON, 0 OFF, -1 erased.
+    phy : PhyFormat
+
+    Returns
+    -------
+    ndarray of int64
+        For every OFF chip preceded by at least R + 1 ON chips, the index
+        R + 1 chips before it.
+    """
+    on = phy.sync_chips - 1
+    values = np.asarray(chip_values)
+    if values.size <= on:
+        return np.zeros(0, dtype=np.int64)
+    ones = np.concatenate([[0], np.cumsum(values == 1)])
+    closing = np.arange(on, values.size)
+    is_sync = (values[closing] == 0) & (ones[closing] - ones[closing - on] == on)
+    return closing[is_sync] - on
+
+
+def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float, float] | None = None) -> SduCandidates:
+    """Find and decode every PHY-SDU candidate of a chip stream.
+
+    Parameters
+    ----------
+    chips : ChipStream
+    phy : PhyFormat
+    row_span : (float, float), optional
+        Rows (profile coordinates) the LED is known to cover; a candidate
+        reaching outside is truncated.
+
+    Returns
+    -------
+    SduCandidates
+        Candidates in stream order, including truncated ones.
+    """
+    starts = find_sync_starts(chips.values, phy)
+    n_chips = phy.sdu_chips
+    n = starts.size
+    payload = np.zeros((n, phy.payload_bits), dtype=np.uint8)
+    if n == 0:
+        empty = np.zeros(0)
+        return SduCandidates(empty, empty, np.zeros(0, np.int64), payload, np.zeros(0, np.int64), empty)
+    total = len(chips)
+    inside = starts + n_chips <= total
+    # Clip indices so that truncated candidates can be gathered too.
+    index = np.minimum(starts[:, None] + np.arange(n_chips), total - 1)
+    values = chips.values[index]
+    erased = np.any(values < 0, axis=1)
+    exact = np.all(chips.exact[index], axis=1)
+    first_row = chips.start[starts]
+    # A candidate running past the stream ends where its chips would.
+    pitch = float(np.median(chips.end - chips.start))
+    last_row = np.where(inside, chips.end[index[:, -1]], first_row + n_chips * pitch)
+    complete = inside & exact
+    if row_span is not None:
+        complete &= (first_row >= row_span[0]) & (last_row <= row_span[1])
+    coded = np.where(values[:, phy.sync_chips :] > 0, 1, 0).astype(np.uint8)
+    decoded = phy.decode_coded(coded)
+    status = np.select(
+        [~complete, erased, ~decoded.code_ok, ~decoded.check_ok],
+        [TRUNCATED, ERASURE, CODE_ERROR, CHECK_FAILED],
+        default=OK,
+    )
+    confidence = np.where(erased, 0.0, np.min(chips.confidence[index], axis=1))
+    return SduCandidates(first_row, last_row, decoded.sequence, decoded.payload, status, confidence)

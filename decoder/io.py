@@ -1,0 +1,144 @@
+"""Reading and checking frames.
+
+A frame reaching the decoder is one of
+
+- gray: ``(H, W)`` uint8 (gray8, black level removed) or uint16 (raw16 DN,
+  black level present), or float;
+- colour: ``(H, W, 3)``, RGB channel order (:func:`read_frame` converts
+  OpenCV's BGR).
+
+A 4-channel image (RGBA, or grey + alpha that OpenCV expands to 4 channels)
+loses its alpha channel. Anything else (a 2-channel array, 5 channels, an
+image too small to hold a stripe, an empty or non-finite array) is rejected
+with a :class:`FrameError`, never guessed at.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# Every complete PNG ends with an empty IEND chunk (length 0, type, CRC).
+PNG_IEND = b"\x00\x00\x00\x00IEND\xaeB`\x82"
+# A frame must have room for at least a few stripes; smaller is not a frame.
+MIN_ROWS = 4
+MIN_COLS = 2
+
+
+class FrameError(ValueError):
+    """A frame that cannot be decoded: wrong shape, channels or dtype."""
+
+
+class FrameReadError(FrameError):
+    """A frame file that cannot be read.
+
+    Attributes
+    ----------
+    path : str
+        The file name, as given.
+    reason : str
+        What is wrong with it.
+    """
+
+    def __init__(self, path, reason: str):
+        self.path = str(path)
+        self.reason = reason
+        super().__init__(f"{self.path}: {reason}")
+
+
+def as_frame_array(image) -> np.ndarray:
+    """Check an in-memory frame and bring it to a decodable layout.
+
+    Parameters
+    ----------
+    image : array_like
+        ``(H, W)``, ``(H, W, 1)``, ``(H, W, 3)`` or ``(H, W, 4)`` (alpha
+        dropped). uint8, uint16 and float32 pass unchanged; other integer
+        and float types become float32, bool becomes uint8.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` or ``(H, W, 3)``, C-contiguous.
+
+    Raises
+    ------
+    FrameError
+        Wrong number of dimensions or channels, fewer than
+        :data:`MIN_ROWS` rows or :data:`MIN_COLS` columns, a non-numeric
+        dtype, or NaN/inf values.
+    """
+    arr = np.asarray(image)
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    if arr.ndim == 3:
+        channels = arr.shape[2]
+        if channels == 4:
+            arr = arr[:, :, :3]
+        elif channels != 3:
+            raise FrameError(f"a frame needs 1, 3 or 4 channels, got {channels}")
+    elif arr.ndim != 2:
+        raise FrameError(f"a frame must be a 2-D (gray) or 3-D (colour) array, got {arr.ndim} dimensions")
+    height, width = arr.shape[:2]
+    if height < MIN_ROWS or width < MIN_COLS:
+        raise FrameError(f"a frame needs at least {MIN_ROWS}x{MIN_COLS} pixels, got {height}x{width}")
+    if arr.dtype == np.bool_:
+        arr = arr.astype(np.uint8)
+    elif arr.dtype.kind not in "uif":
+        raise FrameError(f"a frame must hold numbers, got dtype {arr.dtype}")
+    elif arr.dtype not in (np.uint8, np.uint16, np.float32):
+        arr = arr.astype(np.float32)
+    if arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise FrameError("a frame must not contain NaN or inf")
+    return np.ascontiguousarray(arr)
+
+
+def read_frame(path) -> np.ndarray:
+    """Read a PNG frame, unchanged in bit depth.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A PNG file: 8- or 16-bit, gray or colour.
+
+    Returns
+    -------
+    ndarray
+        ``(H, W)`` uint8/uint16, or ``(H, W, 3)`` in RGB order (alpha
+        dropped).
+
+    Raises
+    ------
+    FrameReadError
+        Missing or unreadable file, not a PNG, truncated, undecodable, or
+        of a shape :func:`as_frame_array` rejects. The message names the
+        file.
+    """
+    name = os.fspath(path)
+    try:
+        data = Path(name).read_bytes()
+    except FileNotFoundError:
+        raise FrameReadError(name, "no such file") from None
+    except IsADirectoryError:
+        raise FrameReadError(name, "is a directory, not a PNG file") from None
+    except OSError as exc:
+        raise FrameReadError(name, f"cannot read: {exc.strerror or exc}") from None
+    if not data.startswith(PNG_SIGNATURE):
+        raise FrameReadError(name, "not a PNG file (bad signature)")
+    # Checked here because libpng's own message for a cut file is vague and
+    # goes to stderr.
+    if PNG_IEND not in data[-4096:]:
+        raise FrameReadError(name, "truncated PNG (no IEND chunk)")
+    image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
+    if image is None or image.size == 0:
+        raise FrameReadError(name, "corrupt PNG (cannot be decoded)")
+    if image.ndim == 3 and image.shape[2] >= 3:
+        image = image[:, :, 2::-1]  # BGR(A) -> RGB, alpha dropped
+    try:
+        return as_frame_array(image)
+    except FrameError as exc:
+        raise FrameReadError(name, str(exc)) from None

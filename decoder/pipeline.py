@@ -1,0 +1,338 @@
+"""The decoder pipeline: frame → regions → row profiles → chips → PHY-SDUs.
+
+Stages (one module each): :mod:`decoder.region` (LED footprints),
+:mod:`decoder.profile` (row means), :mod:`decoder.binarize` (local
+threshold, erasures), :mod:`decoder.timing` (clock recovery) and
+:mod:`decoder.framing` (SYNC, line code, check).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from typing import Iterable, Iterator
+
+import cv2
+import numpy as np
+
+from rollsim.protocol import PhyFormat, max_run_length
+
+from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
+from decoder.framing import OK, TRUNCATED, decode_chip_stream
+from decoder.io import FrameError, as_frame_array, read_frame
+from decoder.profile import RowProfile, row_profile
+from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
+from decoder.region import block_means, choose_factor, detect_regions
+from decoder.timing import (
+    MIN_ROWS_PER_CHIP,
+    Runs,
+    estimate_rows_per_chip,
+    find_runs,
+    merge_glitches,
+    nominal_rows_per_chip,
+    runs_to_chips,
+)
+
+# Closing height when the chip pitch is unknown: above the longest OFF run
+# (4 chips of 4B6B) up to ~20 rows per chip.
+DEFAULT_CLOSE_ROWS = 100
+# An edge run longer or shorter than a whole number of chips by more than
+# this (chips) is taken as cut by the footprint's edge.
+CUT_RUN_OFF_GRID_CHIPS = 0.2
+# Tolerance (rows) of the LED's row span (see timing.CUT_TOLERANCE_ROWS).
+SPAN_TOLERANCE_ROWS = 0.5
+
+
+def longest_run_chips(phy: PhyFormat) -> int:
+    """Longest run of equal chips in a stream of PHY-SDUs (upper bound).
+
+    The SYNC's ON chips plus up to R ON chips of the data before it.
+    """
+    return phy.sync_chips - 1 + max_run_length(phy.line_code)
+
+
+def envelope_window_rows(phy: PhyFormat, rows_per_chip: float) -> int:
+    """Envelope window (odd, rows): more than twice the longest run."""
+    rows = (2 * longest_run_chips(phy) + 1) * rows_per_chip
+    return 2 * int(rows // 2) + 1
+
+
+def closing_rows(phy: PhyFormat, rows_per_chip: float | None) -> float:
+    """Height (rows) of the closing that joins an LED's bright bands."""
+    if rows_per_chip is None:
+        return float(DEFAULT_CLOSE_ROWS)
+    # The longest OFF run, one chip of margin, and a few rows for the blur.
+    return (max_run_length(phy.line_code) + 1) * rows_per_chip + 8.0
+
+
+def coarse_rows_per_chip(profile: RowProfile, min_contrast: float = MIN_CONTRAST_SIGMA) -> float | None:
+    """Rows per chip of a profile whose chip pitch is unknown.
+
+    Binarise with a wide window (a tenth of the profile, at least 31 rows),
+    then fit a chip pitch to the run lengths.
+    """
+    n = len(profile)
+    window = max(31, 2 * (n // 20) + 1)
+    levels = binarize_profile(profile.values, profile.noise, window, 0.0, min_contrast)
+    return estimate_rows_per_chip(find_runs(levels.level, levels.q))
+
+
+def led_edges(runs: Runs, levels: Binarized, pitch: float):
+    """Where the LED is surely seen, and which runs its edges may cut.
+
+    The span runs from the first to the last ON run that clearly reaches the
+    ON level (:func:`decoder.binarize.confident_on_span`), and on over a
+    whole-chip OFF run that a rising edge closes; rows outside may be
+    background read as bits. The first and last of these ON runs may be
+    cut by the footprint's edge although they look whole: one that is not a
+    whole number of chips long is treated as cut, so its chips are laid
+    from its inner edge.
+
+    Returns
+    -------
+    (cut_left, cut_right, span) or None
+        Boolean arrays over runs, and the (first, last) row a whole PHY-SDU
+        must lie in (profile coordinates); None if the LED is never
+        clearly ON.
+    """
+    seen = confident_on_span(levels.level, levels.q)
+    if seen is None:
+        return None
+    first_on = np.searchsorted(runs.bounds, seen[0], side="right") - 1
+    last_on = np.searchsorted(runs.bounds, seen[1], side="right") - 1
+    on_runs = np.flatnonzero(runs.values == 1)
+    on_runs = on_runs[(on_runs >= first_on) & (on_runs <= last_on)]
+    if on_runs.size == 0:
+        return None
+    first, last = on_runs[0], on_runs[-1]
+    chips = runs.lengths / pitch
+    off_grid = np.abs(chips - np.rint(chips)) > CUT_RUN_OFF_GRID_CHIPS
+    cut_left = np.zeros(runs.values.size, dtype=bool)
+    cut_right = np.zeros(runs.values.size, dtype=bool)
+    cut_left[first] = off_grid[first]
+    cut_right[last] = off_grid[last]
+    end = last
+    # A PHY-SDU ending in OFF chips ends at the rising edge of the next SYNC,
+    # whose ON run the footprint's edge may cut too short to be confident.
+    # The OFF run is still the LED's if it is whole chips between two real
+    # edges, the second rising into an ON run.
+    after = last + 2
+    if after < runs.values.size and runs.values[last + 1] == 0 and runs.values[after] == 1 and not off_grid[last + 1]:
+        end = last + 1
+    span = (runs.bounds[first] - SPAN_TOLERANCE_ROWS, runs.bounds[end + 1] + SPAN_TOLERANCE_ROWS)
+    return cut_left, cut_right, span
+
+
+def decode_profile(
+    profile: RowProfile,
+    phy: PhyFormat,
+    rows_per_chip: float | None = None,
+    *,
+    frame_index: int = 0,
+    region: int = 0,
+    include_failed: bool = True,
+    include_truncated: bool = False,
+    min_contrast: float = MIN_CONTRAST_SIGMA,
+) -> list[DecodedPhySdu]:
+    """Decode the PHY-SDUs of one row profile.
+
+    Parameters
+    ----------
+    profile : RowProfile
+    phy : PhyFormat
+    rows_per_chip : float, optional
+        Nominal chip pitch in rows; estimated from the profile if None.
+    frame_index, region : int
+        Copied into the records.
+    include_failed : bool
+        Also report candidates that failed the line code, the check or hit
+        an erasure (``check_ok`` False).
+    include_truncated : bool
+        Also report candidates reaching past the LED's rows.
+    min_contrast : float
+        Erasure threshold, in noise sigmas (see :mod:`decoder.binarize`).
+
+    Returns
+    -------
+    list of DecodedPhySdu
+        In row order.
+    """
+    if len(profile) < phy.sdu_chips:
+        return []
+    pitch = rows_per_chip if rows_per_chip is not None else coarse_rows_per_chip(profile, min_contrast)
+    if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
+        return []
+    levels = binarize_profile(
+        profile.values,
+        profile.noise,
+        envelope_window_rows(phy, pitch),
+        smooth_rows=pitch / 6.0,
+        min_contrast=min_contrast,
+        min_run_rows=0.5 * pitch,
+    )
+    runs = merge_glitches(find_runs(levels.level, levels.q), pitch)
+    edges = led_edges(runs, levels, pitch)
+    if edges is None:
+        return []
+    cut_left, cut_right, span = edges
+    chips = runs_to_chips(runs, pitch, levels.q, cut_left, cut_right)
+    found = decode_chip_stream(chips, phy, span)
+    keep = found.status != TRUNCATED if not include_truncated else np.ones(len(found), dtype=bool)
+    if not include_failed:
+        keep &= found.check_ok
+    offset = float(profile.first_row)
+    payload_bits = ["".join("1" if b else "0" for b in row) for row in found.payload[keep].tolist()]
+    return [
+        DecodedPhySdu(
+            frame=int(frame_index),
+            first_row_f=offset + float(first),
+            last_row_f=offset + float(last),
+            sequence=int(seq),
+            bits=bits,
+            check_ok=bool(status == OK),
+            confidence=float(conf),
+            status=STATUSES[int(status)],
+            region=int(region),
+        )
+        for first, last, seq, bits, status, conf in zip(
+            found.first_row[keep].tolist(),
+            found.last_row[keep].tolist(),
+            found.sequence[keep].tolist(),
+            payload_bits,
+            found.status[keep].tolist(),
+            found.confidence[keep].tolist(),
+        )
+    ]
+
+
+def decode_frame(
+    image,
+    phy: PhyFormat,
+    clock_hz: float | None = None,
+    row_time_s: float | None = None,
+    frame_index: int = 0,
+    *,
+    include_failed: bool = True,
+    include_truncated: bool = False,
+    min_contrast: float = MIN_CONTRAST_SIGMA,
+    block_px: int = 4,
+    max_regions: int = 8,
+) -> list[DecodedPhySdu]:
+    """Decode the PHY-SDUs of one frame.
+
+    Parameters
+    ----------
+    image : array_like
+        ``(H, W)`` gray (uint8, uint16 or float) or ``(H, W, 3|4)`` colour.
+    phy : PhyFormat
+        The PHY-SDU layout (shared with the transmitter).
+    clock_hz : float, optional
+        Chip rate in Hz.
+    row_time_s : float, optional
+        Row time in seconds. With ``clock_hz`` it gives the nominal chip
+        pitch 1 / (f·t_row) rows; without either, the pitch is estimated
+        from each profile's run lengths.
+    frame_index : int
+        Copied into the records.
+    include_failed : bool
+        Report candidates whose check failed (``check_ok`` False).
+    include_truncated : bool
+        Report candidates reaching past the LED's rows (never ``check_ok``).
+    min_contrast : float
+        Erasure threshold in noise sigmas.
+    block_px : int
+        Block size of the detection image, in pixels.
+    max_regions : int
+        LED regions decoded at most.
+
+    Returns
+    -------
+    list of DecodedPhySdu
+        Sorted by region, then row. Empty when the frame shows no LED.
+
+    Raises
+    ------
+    FrameError
+        The array is not a frame (see :func:`decoder.io.as_frame_array`).
+    """
+    frame = as_frame_array(image)
+    pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz and row_time_s else None
+    blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
+    regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions)
+    decoded: list[DecodedPhySdu] = []
+    for index, region in enumerate(regions):
+        decoded.extend(
+            decode_profile(
+                row_profile(blocks, region),
+                phy,
+                pitch,
+                frame_index=frame_index,
+                region=index,
+                include_failed=include_failed,
+                include_truncated=include_truncated,
+                min_contrast=min_contrast,
+            )
+        )
+    return decoded
+
+
+_TRAILING_NUMBER = re.compile(r"(\d+)\D*$")
+
+
+def frame_index_from_name(path, default: int) -> int:
+    """Frame index from the last number in a file's stem (``frame_000042.png``
+    → 42), else ``default``."""
+    stem = os.path.splitext(os.path.basename(os.fspath(path)))[0]
+    match = _TRAILING_NUMBER.search(stem)
+    return int(match.group(1)) if match else default
+
+
+def decode_frames(
+    frames: Iterable,
+    phy: PhyFormat,
+    clock_hz: float | None = None,
+    row_time_s: float | None = None,
+    *,
+    first_frame: int = 0,
+    errors: list | None = None,
+    **options,
+) -> Iterator[FrameDecode]:
+    """Decode a stream of frames, one :class:`FrameDecode` per frame.
+
+    Parameters
+    ----------
+    frames : iterable of array_like or path
+        Arrays, or PNG file names (read with :func:`decoder.io.read_frame`).
+    phy, clock_hz, row_time_s
+        As for :func:`decode_frame`.
+    first_frame : int
+        Index of the first frame. A file name ending in a number
+        (``frame_000042.png``) gives its own index.
+    errors : list, optional
+        Error records (:meth:`FrameDecode.error_record`) of the frames that
+        could not be decoded are appended here too.
+    **options
+        Passed to :func:`decode_frame`.
+
+    Yields
+    ------
+    FrameDecode
+        A frame that cannot be read or is not a frame yields a result with
+        ``error`` set (naming the file) and no PHY-SDU; decoding goes on.
+    """
+    for position, item in enumerate(frames):
+        index = first_frame + position
+        source = None
+        if isinstance(item, (str, os.PathLike)):
+            source = os.fspath(item)
+            index = frame_index_from_name(source, index)
+        try:
+            image = read_frame(source) if source is not None else item
+            sdus = decode_frame(image, phy, clock_hz, row_time_s, index, **options)
+        except (FrameError, cv2.error) as exc:
+            failed = FrameDecode(index, source, (), str(exc))
+            if errors is not None:
+                errors.append(failed.error_record())
+            yield failed
+            continue
+        yield FrameDecode(index, source, tuple(sdus), None)

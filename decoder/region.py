@@ -1,0 +1,317 @@
+"""LED region detection.
+
+The LED's footprint is cut into bands by the OFF stripes, so it is found on
+a block-averaged copy of the frame (which also averages the pixel noise
+away), further averaged along rows (stripes are horizontal): threshold it
+(Otsu), close the gaps between the bright bands with a vertical closing
+taller than the longest OFF run, and take the connected components (outer
+contours, filled). Each region then grows up and down over fainter blocks,
+where the footprint's top and bottom only partly cover a block.
+
+A frame without an LED (black, saturated, pure noise, a flat wall) yields no
+region: Otsu's two classes must be separated by several times the noise,
+measured from horizontal pixel differences, which cancel the stripes
+(stripes are constant along a row).
+
+Coordinates: ``block`` quantities are on the grid of ``factor`` × ``factor``
+pixel blocks; rows of a :class:`Region` are full-resolution frame rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+# Otsu's two classes must lie this many noise standard deviations apart
+# (of block means) before the bright one counts as an LED. Pure Gaussian
+# noise splits into classes about 1.6 sigma apart.
+MIN_SEPARATION_SIGMA = 5.0
+# Blocks averaged along a row before thresholding.
+SMOOTH_BLOCKS = 5
+# MAD of a normal distribution -> standard deviation.
+MAD_TO_SIGMA = 1.4826
+
+
+@dataclass(frozen=True)
+class BlockImage:
+    """A frame and its block-averaged copy.
+
+    Attributes
+    ----------
+    frame : ndarray
+        The frame, ``(H, W)`` or ``(H, W, 3)`` (not copied).
+    blocks : ndarray of float32, shape (H // factor, W // factor[, 3])
+        Means over ``factor`` × ``factor`` pixel blocks: detection runs on
+        these (16 times fewer pixels, 4 times less noise).
+    factor : int
+        Block size in pixels.
+    """
+
+    frame: np.ndarray
+    blocks: np.ndarray
+    factor: int
+
+    @property
+    def height(self) -> int:
+        return int(self.frame.shape[0])
+
+    @property
+    def integer(self) -> bool:
+        """Whether the frame holds integers (values quantised to 1)."""
+        return self.frame.dtype.kind in "ui"
+
+    def block_row_of(self, rows) -> np.ndarray:
+        """Block row holding each full-resolution row."""
+        n_block_rows = self.blocks.shape[0]
+        return np.minimum(np.asarray(rows) * n_block_rows // self.height, n_block_rows - 1)
+
+    def block_col_span(self, block_cols: slice) -> slice:
+        """Frame columns of a range of block columns."""
+        width, n_block_cols = self.frame.shape[1], self.blocks.shape[1]
+        start = block_cols.start * width // n_block_cols
+        stop = -(-block_cols.stop * width // n_block_cols)
+        return slice(start, min(width, stop))
+
+
+@dataclass(frozen=True)
+class Region:
+    """A bright region (an LED footprint) of a frame.
+
+    Attributes
+    ----------
+    rows : slice
+        Full-resolution rows [start, stop) covered by the region.
+    block_cols : slice
+        Block columns [start, stop) of its bounding box.
+    weights : ndarray of float32, shape (rows, block columns)
+        1 where a block of the row belongs to the region, else 0.
+    area_blocks : int
+        Blocks in the region.
+    """
+
+    rows: slice
+    block_cols: slice
+    weights: np.ndarray
+    area_blocks: int
+
+
+def choose_factor(shape: tuple[int, int], requested: int = 4) -> int:
+    """Block size: ``requested`` unless the frame is too small for it."""
+    factor = max(1, int(requested))
+    while factor > 1 and min(shape[0], shape[1]) < 16 * factor:
+        factor //= 2
+    return factor
+
+
+def block_means(frame: np.ndarray, factor: int) -> BlockImage:
+    """Average a frame over square blocks of ``factor`` pixels.
+
+    Parameters
+    ----------
+    frame : ndarray
+        ``(H, W)`` or ``(H, W, 3)``, as from :func:`decoder.io.as_frame_array`.
+    factor : int
+        Block size in pixels.
+    """
+    height, width = frame.shape[:2]
+    size = (max(1, width // factor), max(1, height // factor))
+    # INTER_AREA with an integer ratio is an exact block mean (rounded to an
+    # integer for integer frames: 16 pixels are averaged, the error is small).
+    blocks = frame if factor == 1 else cv2.resize(frame, size, interpolation=cv2.INTER_AREA)
+    return BlockImage(frame, blocks.astype(np.float32), factor)
+
+
+def horizontal_noise(values: np.ndarray, row_step: int = 1, mask=None, max_samples: int = 20000) -> float:
+    """Noise standard deviation from differences of horizontal neighbours.
+
+    Stripes are constant along a row, so the differences hold noise only
+    (and a few footprint edges, which the median ignores).
+
+    Parameters
+    ----------
+    values : ndarray, shape (rows, cols)
+    row_step : int
+        Use every ``row_step``-th row.
+    mask : ndarray of bool, shape (rows, cols), optional
+        Use only pairs of neighbours that are both inside the mask.
+    max_samples : int
+        Subsample the differences to about this many (speed; the median
+        of 20 000 is good to 1 %).
+
+    Returns
+    -------
+    float
+        Estimated sigma of one value (0 if there are no pairs).
+    """
+    step = max(1, int(row_step))
+    n_rows = -(-values.shape[0] // step)
+    step *= max(1, int(n_rows * values.shape[1] // max_samples))
+    sub = values[::step]
+    diff = np.abs(sub[:, 1:] - sub[:, :-1])
+    if mask is not None:
+        m = mask[::step]
+        diff = diff[m[:, 1:] & m[:, :-1]]
+    diff = diff.ravel()
+    if diff.size == 0:
+        return 0.0
+    middle = diff.size // 2
+    return float(MAD_TO_SIGMA * np.partition(diff, middle)[middle] / np.sqrt(2.0))
+
+
+def otsu_threshold(values: np.ndarray) -> tuple[float, float, float] | None:
+    """Otsu's threshold of ``values`` (256 levels) and the two class means.
+
+    Returns
+    -------
+    (threshold, mean_low, mean_high) or None
+        None when all values are equal.
+    """
+    lo, hi = float(values.min()), float(values.max())
+    if not hi > lo:
+        return None
+    scale = 255.0 / (hi - lo)
+    # cv2's Otsu works on 8 bits: map [lo, hi] onto 0..255.
+    levels = cv2.convertScaleAbs(values, alpha=scale, beta=-lo * scale)
+    t8, bright = cv2.threshold(levels, 0, 1, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
+    n_high = int(cv2.countNonZero(bright))
+    if n_high == 0 or n_high == values.size:
+        return None
+    total = float(values.sum(dtype=np.float64))
+    high = float(cv2.mean(values, mask=bright)[0])
+    low = (total - high * n_high) / (values.size - n_high)
+    return lo + (t8 + 0.5) / scale, low, high
+
+
+def detect_regions(
+    image: BlockImage,
+    close_rows: float,
+    max_regions: int = 8,
+    min_area_blocks: int = 4,
+    min_separation: float = MIN_SEPARATION_SIGMA,
+) -> list[Region]:
+    """Find the LED footprints of a block-averaged frame.
+
+    Parameters
+    ----------
+    image : BlockImage
+    close_rows : float
+        Height in rows of the vertical closing: more than the longest OFF
+        run of the line code (a few chips).
+    max_regions : int
+        Keep at most this many regions, largest first.
+    min_area_blocks : int
+        Smaller components are noise.
+    min_separation : float
+        Otsu's class means must differ by this many noise sigmas.
+
+    Returns
+    -------
+    list of Region
+        Largest first; empty when the frame shows no LED.
+    """
+    blocks = image.blocks
+    gray = blocks @ np.full(blocks.shape[2], 1.0 / blocks.shape[2], np.float32) if blocks.ndim == 3 else blocks
+    noise = max(horizontal_noise(gray, row_step=2), _noise_floor(image, gray))
+    smoothed = gray.shape[1] >= 2 * SMOOTH_BLOCKS
+    if smoothed:
+        # Stripes are horizontal: averaging along rows cuts the noise and
+        # keeps them.
+        gray = cv2.blur(gray, (SMOOTH_BLOCKS, 1), borderType=cv2.BORDER_REFLECT)
+        noise /= np.sqrt(SMOOTH_BLOCKS)
+    split = otsu_threshold(gray)
+    if split is None:
+        return []
+    threshold, mean_low, mean_high = split
+    if mean_high - mean_low < min_separation * noise:
+        return []
+    # Odd, so that the kernel is centred and the closing never removes pixels.
+    kernel_rows = 2 * int(np.ceil(0.5 * min(close_rows / image.factor, gray.shape[0]))) + 1
+    bright = (gray > threshold).astype(np.uint8)
+    if smoothed:
+        # The row average spreads the footprint's sides by up to two blocks;
+        # take one back so the mask mixes in less background.
+        bright = cv2.erode(bright, np.ones((1, 3), np.uint8))
+    bright = close_vertically(bright, kernel_rows)
+    # Blocks straddling the footprint's top or bottom edge are dimmer; a
+    # lower threshold picks them up (near a region only).
+    faint = min(threshold, max(mean_low + 0.5 * (threshold - mean_low), mean_low + 4.0 * noise))
+    # Outer contours are much faster than labelled components with stats;
+    # filling them also closes any holes left inside a footprint.
+    contours, _ = cv2.findContours(bright, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    boxes = [cv2.boundingRect(c) for c in contours]
+    order = sorted(range(len(boxes)), key=lambda i: -boxes[i][2] * boxes[i][3])
+    regions = []
+    for i in order:
+        x, y, w, h = boxes[i]
+        if w * h < min_area_blocks:
+            break
+        mask = np.zeros((h, w), np.uint8)
+        cv2.drawContours(mask, contours, i, 1, thickness=cv2.FILLED, offset=(-x, -y))
+        area = int(cv2.countNonZero(mask))
+        if area >= min_area_blocks:
+            mask, y = _extend_ends(gray, mask, x, y, faint, kernel_rows)
+            regions.append(_region_from_mask(image, mask, x, y, area))
+        if len(regions) == max_regions:
+            break
+    return regions
+
+
+def close_vertically(mask: np.ndarray, kernel_rows: int) -> np.ndarray:
+    """Vertical closing of a 0/1 uint8 mask with a ``kernel_rows`` × 1 line.
+
+    It joins bright bands less than ``kernel_rows`` apart in a column.
+    """
+    if kernel_rows <= 1:
+        return mask
+    # Pad with dark rows: cv2's default border would count as bright for the
+    # erosion and smear a footprint up to the frame's edge.
+    pad = kernel_rows
+    padded = cv2.copyMakeBorder(mask, pad, pad, 0, 0, cv2.BORDER_CONSTANT, value=0)
+    kernel = np.ones((kernel_rows, 1), np.uint8)
+    return cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[pad:-pad]
+
+
+def _extend_ends(gray, mask, x, y, faint, kernel_rows) -> tuple[np.ndarray, int]:
+    """Grow a region's mask up and down over faint blocks within reach.
+
+    Returns the new mask and its first block row.
+    """
+    h, w = mask.shape
+    top, bottom = max(0, y - kernel_rows), min(gray.shape[0], y + h + kernel_rows)
+    grown = (gray[top:bottom, x : x + w] > faint).astype(np.uint8)
+    inner = slice(y - top, y - top + h)
+    grown[inner] = mask
+    grown = close_vertically(grown, kernel_rows)
+    grown[inner] |= mask
+    # Keep the rows joined to the region without a gap.
+    filled = grown.any(axis=1)
+    first, last = y - top, y - top + h - 1
+    empty_above = np.flatnonzero(~filled[:first])
+    empty_below = np.flatnonzero(~filled[last + 1 :])
+    first = empty_above[-1] + 1 if empty_above.size else 0
+    last = last + empty_below[0] if empty_below.size else filled.size - 1
+    return grown[first : last + 1], top + first
+
+
+def _noise_floor(image: BlockImage, gray: np.ndarray) -> float:
+    # Quantisation of integer frames; a relative floor for float frames so
+    # that an exactly flat float image is never "infinitely clean".
+    if image.integer:
+        return 0.3 / image.factor
+    return 1e-6 * max(1.0, float(np.max(np.abs(gray))))
+
+
+def _region_from_mask(image: BlockImage, mask: np.ndarray, x: int, y: int, area: int) -> Region:
+    n_block_rows = image.blocks.shape[0]
+    height = image.height
+    # One more block row above and below: a block straddling the footprint's
+    # top or bottom edge is too dark to pass the threshold, but its rows may
+    # hold the first or last chips of a PHY-SDU. Their mask repeats the
+    # nearest row's.
+    top, bottom = max(0, y - 1), min(n_block_rows, y + mask.shape[0] + 1)
+    first = -(-top * height // n_block_rows)
+    stop = height if bottom >= n_block_rows else -(-bottom * height // n_block_rows)
+    block_row = np.clip(image.block_row_of(np.arange(first, stop)) - y, 0, mask.shape[0] - 1)
+    return Region(slice(first, stop), slice(x, x + mask.shape[1]), mask.astype(np.float32)[block_row], area)

@@ -1,0 +1,187 @@
+"""Row-time calibration from frames of a chip-rate square wave.
+
+An LED sending ON on even chips and OFF on odd chips (rollsim's ``square``
+pattern, period 2 / f) paints stripes of period P rows, so the row time is
+t_row = (2 / f) / P. P is found in two steps:
+
+1. the peak of the profile's spectrum (zero-padded FFT, parabolic
+   interpolation), a first guess good to a few percent;
+2. a regression over every edge: each rising (falling) edge sits at
+   a + P·k for an integer period index k. Rising and falling edges get their
+   own intercept, so blooming or a long exposure, which widen the ON bands,
+   do not bias P. The regression's standard error is the uncertainty.
+
+Frames are combined by inverse-variance weighting; the uncertainty is the
+larger of the combined standard error and the spread between frames.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Iterable
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from decoder.binarize import binarize_profile
+from decoder.io import FrameError, as_frame_array, read_frame
+from decoder.profile import RowProfile, row_profile
+from decoder.region import block_means, choose_factor, detect_regions
+from decoder.timing import find_runs
+
+# Fewer edges than this in a frame give no estimate from it.
+MIN_EDGES = 8
+
+
+class RowTimeError(ValueError):
+    """No frame gave a row-time estimate."""
+
+
+def spectral_period_rows(values: np.ndarray, min_period: float = 2.5) -> float | None:
+    """Period in rows of the strongest oscillation of a profile.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n,)
+    min_period : float
+        Shortest period considered, in rows.
+
+    Returns
+    -------
+    float or None
+        None for a profile too short to hold four periods.
+    """
+    n = values.size
+    if n < 16:
+        return None
+    # Remove the slow level (vignetting, footprint) before looking for stripes.
+    detrended = values - uniform_filter1d(values, max(3, n // 8), mode="nearest")
+    size = 1 << int(np.ceil(np.log2(8 * n)))
+    spectrum = np.abs(np.fft.rfft(detrended * np.hanning(n), size))
+    freqs = np.fft.rfftfreq(size)
+    band = (freqs >= 4.0 / n) & (freqs <= 1.0 / min_period)
+    if band.sum() < 3:
+        return None
+    k = int(np.flatnonzero(band)[np.argmax(spectrum[band])])
+    if k <= 0 or k >= spectrum.size - 1:
+        return 1.0 / freqs[k]
+    # Parabolic interpolation of the log magnitude around the peak.
+    a, b, c = np.log(spectrum[k - 1 : k + 2] + 1e-300)
+    denom = a - 2.0 * b + c
+    shift = 0.5 * (a - c) / denom if denom < 0 else 0.0
+    return 1.0 / ((k + float(np.clip(shift, -0.5, 0.5))) * (freqs[1] - freqs[0]))
+
+
+def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, float, int] | None:
+    """Stripe period by regression over the edges of a square-wave profile.
+
+    Parameters
+    ----------
+    profile : RowProfile
+    guess_rows : float
+        Period guess, good to better than ~20 %.
+
+    Returns
+    -------
+    (period_rows, standard_error_rows, n_edges) or None
+    """
+    window = 2 * int(1.5 * guess_rows) + 1  # every window holds ON and OFF rows
+    levels = binarize_profile(profile.values, profile.noise, window, guess_rows / 12.0)
+    runs = find_runs(levels.level, levels.q)
+    values = runs.values
+    if values.size < 3:
+        return None
+    edges = runs.bounds[1:-1]
+    before, after = values[:-1], values[1:]
+    real = (before >= 0) & (after >= 0)
+    ks, positions, groups = [], [], []
+    for rising in (True, False):
+        sel = real & ((after == 1) if rising else (after == 0))
+        e = edges[sel]
+        if e.size < 2:
+            continue
+        k = np.rint((e - e[0]) / guess_rows)
+        ks.append(k - k.mean())
+        positions.append(e - e.mean())
+        groups.append(e.size)
+    if sum(groups) < MIN_EDGES:
+        return None
+    k = np.concatenate(ks)
+    e = np.concatenate(positions)
+    sxx = float(np.sum(k * k))
+    if sxx <= 0:
+        return None
+    period = float(np.sum(k * e) / sxx)
+    residual = e - period * k
+    dof = max(1, k.size - 1 - len(groups))
+    stderr = float(np.sqrt(np.sum(residual**2) / dof / sxx))
+    return period, stderr, int(k.size)
+
+
+def frame_period_rows(image) -> tuple[float, float, int] | None:
+    """Square-wave stripe period (rows) in a frame's largest LED region."""
+    frame = as_frame_array(image)
+    blocks = block_means(frame, choose_factor(frame.shape[:2]))
+    regions = detect_regions(blocks, close_rows=100.0, max_regions=1)
+    if not regions:
+        return None
+    profile = row_profile(blocks, regions[0])
+    guess = spectral_period_rows(profile.values)
+    if guess is None:
+        return None
+    # Two passes: the first regression sharpens the spectral guess.
+    first = edge_period_rows(profile, guess)
+    if first is None:
+        return None
+    return edge_period_rows(profile, first[0])
+
+
+def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
+    """Row time from frames of an LED sending a chip-rate square wave.
+
+    Parameters
+    ----------
+    frames : iterable of array_like or path
+        Frames (arrays or PNG files) of the ``square`` pattern: ON on even
+        chips, OFF on odd ones, period 2 / ``clock_hz``.
+    clock_hz : float
+        Chip rate in Hz.
+
+    Returns
+    -------
+    row_time_s : float
+        Estimated row time in seconds.
+    uncertainty_s : float
+        One-sigma uncertainty in seconds: the larger of the combined
+        regression standard error and the standard error of the spread
+        between frames.
+
+    Raises
+    ------
+    RowTimeError
+        No frame showed a usable square wave.
+    FrameReadError
+        A file cannot be read.
+    """
+    if not clock_hz > 0:
+        raise ValueError(f"clock_hz must be > 0, got {clock_hz}")
+    periods, errors = [], []
+    for item in frames:
+        image = read_frame(item) if isinstance(item, (str, os.PathLike)) else item
+        try:
+            found = frame_period_rows(image)
+        except FrameError:
+            found = None
+        if found is not None:
+            periods.append(found[0])
+            errors.append(max(found[1], 1e-9 * found[0]))
+    if not periods:
+        raise RowTimeError("no frame shows a square-wave LED to calibrate the row time from")
+    p = np.asarray(periods)
+    w = 1.0 / np.asarray(errors) ** 2
+    period = float(np.sum(w * p) / np.sum(w))
+    sigma = float(np.sqrt(1.0 / np.sum(w)))
+    if p.size > 1:
+        sigma = max(sigma, float(np.std(p, ddof=1) / np.sqrt(p.size)))
+    chip_pair_s = 2.0 / clock_hz
+    return chip_pair_s / period, chip_pair_s * sigma / period**2

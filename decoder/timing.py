@@ -1,0 +1,240 @@
+"""Chip timing: from row levels to chips.
+
+Clock recovery re-aligns on every edge. The levels are cut into runs at
+their edges (sub-row positions where the normalised profile crosses zero);
+each run holds ``round(length / rows_per_chip)`` chips, spread evenly over
+it. A row-time error of a few percent therefore changes a run's length by a
+fraction of a row and never accumulates over a PHY-SDU: only a run of more
+than about 1 / (2·error) chips would be miscounted.
+
+A run cut by the region's border or by an erasure has only one real edge:
+its chips are laid from that edge at the nominal pitch, and chips that reach
+past the cut are flagged as not ``exact`` (a PHY-SDU holding one is
+truncated).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# Chips reaching farther than this past a cut (rows) are not exact. Edges at
+# a footprint's ends are known to about half a row (partial rows, short
+# exposures), so a PHY-SDU may miss up to this much of a chip and pass.
+CUT_TOLERANCE_ROWS = 0.5
+# Fewer rows per chip cannot be resolved by a row-sampled profile.
+MIN_ROWS_PER_CHIP = 1.2
+
+
+@dataclass(frozen=True)
+class Runs:
+    """Maximal runs of equal levels.
+
+    Attributes
+    ----------
+    bounds : ndarray of float64, shape (m + 1,)
+        Run boundaries in rows (profile coordinates); the first is -0.5 and
+        the last n - 0.5 (the profile's outer row edges).
+    values : ndarray of int8, shape (m,)
+        Level of each run: 1, 0 or -1 (erasure).
+    """
+
+    bounds: np.ndarray
+    values: np.ndarray
+
+    @property
+    def lengths(self) -> np.ndarray:
+        return np.diff(self.bounds)
+
+
+@dataclass(frozen=True)
+class ChipStream:
+    """Chips recovered from a profile, in order.
+
+    Attributes
+    ----------
+    values : ndarray of int8, shape (k,)
+        1 ON, 0 OFF, -1 erased.
+    start, end : ndarray of float64, shape (k,)
+        Row positions (profile coordinates) of each chip's start and end
+        edge: the row whose exposure is centred on that instant.
+    confidence : ndarray of float64, shape (k,)
+        |q| at the chip centre, clipped to [0, 1]; 0 for erased chips.
+    exact : ndarray of bool, shape (k,)
+        False for chips laid past a cut (region border, erasure).
+    """
+
+    values: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    confidence: np.ndarray
+    exact: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.values.size)
+
+
+def nominal_rows_per_chip(clock_hz: float, row_time_s: float) -> float:
+    """Rows per chip, 1 / (f·t_row).
+
+    Parameters
+    ----------
+    clock_hz : float
+        Chip rate in Hz.
+    row_time_s : float
+        Row time in seconds.
+    """
+    if not (clock_hz > 0 and row_time_s > 0):
+        raise ValueError(f"clock_hz and row_time_s must be > 0, got {clock_hz} and {row_time_s}")
+    return 1.0 / (clock_hz * row_time_s)
+
+
+def find_runs(level: np.ndarray, q: np.ndarray) -> Runs:
+    """Runs of equal level, with sub-row edges.
+
+    An ON/OFF edge lies where q crosses zero (linear interpolation between
+    the last row on the old side and the next); an edge to or from an
+    erasure lies between the two rows.
+
+    Parameters
+    ----------
+    level : ndarray of int8, shape (n,)
+    q : ndarray of float64, shape (n,)
+        Normalised profile (see :mod:`decoder.binarize`).
+    """
+    n = level.size
+    if n == 0:
+        return Runs(np.array([-0.5, -0.5]), np.zeros(0, np.int8))
+    change = np.flatnonzero(level[1:] != level[:-1])
+    before, after = level[change], level[change + 1]
+    edges = change + 0.5
+    binary = (before >= 0) & (after >= 0)
+    if binary.any():
+        rows = np.arange(n)
+        last_nonpositive = np.maximum.accumulate(np.where(q <= 0, rows, -1))
+        last_nonnegative = np.maximum.accumulate(np.where(q >= 0, rows, -1))
+        k = change[binary]
+        # Hysteresis guarantees q crossed zero between the last opposite
+        # decision and the switch.
+        y = np.where(after[binary] == 1, last_nonpositive[k], last_nonnegative[k])
+        y = np.clip(y, 0, n - 2)
+        q0, q1 = q[y], q[y + 1]
+        denom = q0 - q1
+        frac = np.divide(q0, denom, out=np.full(q0.shape, 0.5), where=denom != 0)
+        edges[binary] = y + np.clip(frac, 0.0, 1.0)
+    bounds = np.concatenate([[-0.5], edges, [n - 0.5]])
+    values = np.concatenate([level[:1], after]).astype(np.int8)
+    return Runs(bounds, values)
+
+
+def merge_glitches(runs: Runs, rows_per_chip: float, passes: int = 3) -> Runs:
+    """Absorb runs shorter than half a chip into their neighbours.
+
+    A short ON/OFF run between two runs of the other level is noise: the
+    three become one run. Next to an erasure it joins the erasure.
+    """
+    bounds, values = runs.bounds, runs.values
+    for _ in range(passes):
+        m = values.size
+        if m < 3:
+            break
+        chips = np.rint(np.diff(bounds) / rows_per_chip)
+        glitch = np.zeros(m, dtype=bool)
+        glitch[1:-1] = (chips[1:-1] == 0) & (values[1:-1] >= 0)
+        if not glitch.any():
+            break
+        i = np.flatnonzero(glitch)
+        new = values.copy()
+        new[i] = np.where(values[i - 1] == values[i + 1], values[i - 1], -1)
+        keep = np.concatenate([[True], new[1:] != new[:-1]])
+        values = new[keep]
+        bounds = np.concatenate([bounds[:-1][keep], bounds[-1:]])
+    return Runs(bounds, values)
+
+
+def estimate_rows_per_chip(runs: Runs, min_runs: int = 8) -> float | None:
+    """Rows per chip from the lengths of whole ON/OFF runs.
+
+    Every run spans a whole number of chips. Start from the 20th percentile
+    of the run lengths (one chip: the commonest run in Manchester and 4B6B)
+    and refine by least squares, rows_per_chip = Σ length / Σ round(length /
+    rows_per_chip).
+
+    Returns
+    -------
+    float or None
+        None when there are too few runs or they fit no chip pitch.
+    """
+    values = runs.values
+    lengths = runs.lengths
+    if values.size < 3:
+        return None
+    # Only runs with a real edge on both sides.
+    inner = np.zeros(values.size, dtype=bool)
+    inner[1:-1] = (values[1:-1] >= 0) & (values[:-2] >= 0) & (values[2:] >= 0)
+    lengths = lengths[inner & (lengths >= MIN_ROWS_PER_CHIP * 0.5)]
+    if lengths.size < min_runs:
+        return None
+    pitch = float(np.percentile(lengths, 20.0))
+    for _ in range(10):
+        chips = np.maximum(np.rint(lengths / pitch), 1.0)
+        new = float(lengths.sum() / chips.sum())
+        if abs(new - pitch) < 1e-9 * pitch:
+            break
+        pitch = new
+    chips = np.maximum(np.rint(lengths / pitch), 1.0)
+    misfit = float(np.median(np.abs(lengths / pitch - chips)))
+    if misfit > 0.25 or pitch < MIN_ROWS_PER_CHIP:
+        return None
+    return pitch
+
+
+def runs_to_chips(
+    runs: Runs,
+    rows_per_chip: float,
+    q: np.ndarray | None = None,
+    cut_left: np.ndarray | None = None,
+    cut_right: np.ndarray | None = None,
+) -> ChipStream:
+    """Lay chips over runs: clock recovery re-aligned at every edge.
+
+    Parameters
+    ----------
+    runs : Runs
+    rows_per_chip : float
+        Nominal chip pitch in rows.
+    q : ndarray, optional
+        Normalised profile, for the chip confidences.
+    cut_left, cut_right : ndarray of bool, optional
+        Runs whose left (right) boundary is to be treated as a cut rather
+        than an edge, in addition to the region's ends and erasures.
+    """
+    values = runs.values
+    lengths = runs.lengths
+    erased = values < 0
+    chips = np.rint(lengths / rows_per_chip).astype(np.int64)
+    chips[erased] = np.maximum(chips[erased], 1)  # an erasure always costs a chip
+    left = np.concatenate([[True], erased[:-1]])
+    right = np.concatenate([erased[1:], [True]])
+    cut_left = left if cut_left is None else left | cut_left
+    cut_right = right if cut_right is None else right | cut_right
+    one_cut = cut_left ^ cut_right
+    # Runs between two real edges are divided evenly; runs with one real edge
+    # are laid from it at the nominal pitch.
+    width = np.where(one_cut, rows_per_chip, lengths / np.maximum(chips, 1))
+    origin = np.where(cut_left & ~cut_right, runs.bounds[1:] - chips * rows_per_chip, runs.bounds[:-1])
+    run_of = np.repeat(np.arange(values.size), chips)
+    first_chip = np.cumsum(chips) - chips
+    index = np.arange(run_of.size) - first_chip[run_of]
+    start = origin[run_of] + index * width[run_of]
+    end = start + width[run_of]
+    exact = (start >= runs.bounds[:-1][run_of] - CUT_TOLERANCE_ROWS) & (end <= runs.bounds[1:][run_of] + CUT_TOLERANCE_ROWS)
+    chip_values = values[run_of].astype(np.int8)
+    if q is not None and q.size:
+        centre = 0.5 * (start + end)
+        confidence = np.clip(np.abs(np.interp(centre, np.arange(q.size), q)), 0.0, 1.0)
+    else:
+        confidence = np.ones(run_of.size)
+    confidence[chip_values < 0] = 0.0
+    return ChipStream(chip_values, start, end, confidence, exact | (chip_values < 0))

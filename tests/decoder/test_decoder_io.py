@@ -1,0 +1,122 @@
+"""decoder.io: reading PNG frames and checking arrays."""
+
+import struct
+import zlib
+
+import cv2
+import numpy as np
+import pytest
+
+from decoder.io import FrameError, FrameReadError, as_frame_array, read_frame
+
+
+def _png_bytes(image) -> bytes:
+    ok, buf = cv2.imencode(".png", image)
+    assert ok
+    return buf.tobytes()
+
+
+def _gray_alpha_png(width=8, height=6) -> bytes:
+    """A valid 8-bit grey + alpha PNG (colour type 4), which cv2 cannot write."""
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    raw = b"".join(b"\x00" + bytes([10 * y, 255] * width) for y in range(height))
+    header = struct.pack(">IIBBBBB", width, height, 8, 4, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+
+def test_gray8_and_raw16_round_trip(tmp_path):
+    gray = np.arange(40 * 30, dtype=np.uint8).reshape(40, 30)
+    raw = (np.arange(40 * 30, dtype=np.uint16).reshape(40, 30) * 50 + 64).astype(np.uint16)
+    (tmp_path / "g.png").write_bytes(_png_bytes(gray))
+    (tmp_path / "r.png").write_bytes(_png_bytes(raw))
+    assert np.array_equal(read_frame(tmp_path / "g.png"), gray)
+    out = read_frame(str(tmp_path / "r.png"))
+    assert out.dtype == np.uint16 and np.array_equal(out, raw)
+
+
+def test_colour_is_rgb_and_alpha_is_dropped(tmp_path):
+    rgb = np.zeros((10, 12, 3), np.uint8)
+    rgb[..., 0] = 200  # red
+    (tmp_path / "c.png").write_bytes(_png_bytes(np.ascontiguousarray(rgb[..., ::-1])))  # cv2 writes BGR
+    assert np.array_equal(read_frame(tmp_path / "c.png"), rgb)
+    bgra = np.dstack([rgb[..., ::-1], np.full((10, 12), 7, np.uint8)])
+    (tmp_path / "a.png").write_bytes(_png_bytes(bgra))
+    out = read_frame(tmp_path / "a.png")
+    assert out.shape == (10, 12, 3) and np.array_equal(out, rgb)
+
+
+def test_gray_plus_alpha_png_reads_as_three_channels(tmp_path):
+    (tmp_path / "ga.png").write_bytes(_gray_alpha_png())
+    out = read_frame(tmp_path / "ga.png")
+    assert out.shape == (6, 8, 3)
+    assert np.all(out[2] == 20)
+
+
+@pytest.mark.parametrize(
+    "name, content, reason",
+    [
+        ("missing.png", None, "no such file"),
+        ("text.png", b"this is not an image", "not a PNG"),
+        ("jpeg.png", b"\xff\xd8\xff\xe0" + b"\x00" * 100, "not a PNG"),
+        ("empty.png", b"", "not a PNG"),
+    ],
+)
+def test_bad_files_name_the_file(tmp_path, name, content, reason):
+    path = tmp_path / name
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(FrameReadError, match=reason) as info:
+        read_frame(path)
+    assert info.value.path == str(path)
+    assert name in str(info.value)
+
+
+def test_truncated_and_corrupt_png(tmp_path):
+    rng = np.random.default_rng(0)
+    data = _png_bytes(rng.integers(0, 255, (64, 64), dtype=np.uint8))
+    (tmp_path / "cut.png").write_bytes(data[: len(data) // 2])
+    with pytest.raises(FrameReadError, match="truncated"):
+        read_frame(tmp_path / "cut.png")
+    # Signature and IEND intact, image data garbled.
+    garbled = data[:60] + bytes(len(data) - 72) + data[-12:]
+    (tmp_path / "garbled.png").write_bytes(garbled)
+    with pytest.raises(FrameReadError, match="garbled.png"):
+        read_frame(tmp_path / "garbled.png")
+
+
+def test_directory_and_tiny_image(tmp_path):
+    with pytest.raises(FrameReadError, match="directory"):
+        read_frame(tmp_path)
+    (tmp_path / "one.png").write_bytes(_png_bytes(np.zeros((1, 1), np.uint8)))
+    with pytest.raises(FrameReadError, match="at least"):
+        read_frame(tmp_path / "one.png")
+
+
+def test_as_frame_array_layouts():
+    assert as_frame_array(np.zeros((8, 5, 1), np.uint8)).shape == (8, 5)
+    assert as_frame_array(np.zeros((8, 5, 4), np.uint16)).shape == (8, 5, 3)
+    assert as_frame_array(np.zeros((8, 5), bool)).dtype == np.uint8
+    assert as_frame_array(np.zeros((8, 5), np.int32)).dtype == np.float32
+    assert as_frame_array(np.zeros((8, 5), np.float64)).dtype == np.float32
+    view = np.zeros((20, 20), np.uint8)[::2, ::2]
+    assert as_frame_array(view).flags["C_CONTIGUOUS"]
+
+
+@pytest.mark.parametrize(
+    "array, message",
+    [
+        (np.zeros((8, 5, 2), np.uint8), "channels"),
+        (np.zeros((8, 5, 5), np.uint8), "channels"),
+        (np.zeros((1, 1), np.uint8), "at least"),
+        (np.zeros(10, np.uint8), "dimensions"),
+        (np.zeros((2, 8, 5, 3), np.uint8), "dimensions"),
+        (np.full((8, 5), np.nan), "NaN"),
+        (np.full((8, 5), "a"), "numbers"),
+    ],
+)
+def test_as_frame_array_rejects(array, message):
+    with pytest.raises(FrameError, match=message):
+        as_frame_array(array)

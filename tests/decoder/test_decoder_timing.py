@@ -1,0 +1,116 @@
+"""decoder.timing: edges, glitches, chip pitch and clock recovery."""
+
+import numpy as np
+import pytest
+from synth import profile_from_chips
+
+from decoder.binarize import binarize_profile
+from decoder.timing import (
+    Runs,
+    estimate_rows_per_chip,
+    find_runs,
+    merge_glitches,
+    nominal_rows_per_chip,
+    runs_to_chips,
+)
+
+RPC = 4.5
+
+
+def random_chips(n, rng, code="manchester"):
+    if code == "manchester":
+        bits = rng.integers(0, 2, n // 2)
+        return np.stack([1 - bits, bits], axis=1).ravel()
+    return rng.integers(0, 2, n)
+
+
+def levels_of(chips, rpc=RPC, exposure_rows=3.6, phase=0.0, noise=0.0, rng=None):
+    values = profile_from_chips(chips, rpc, exposure_rows, phase, on=100.0, off=10.0, noise=noise, rng=rng)
+    levels = binarize_profile(values, max(noise, 0.1), 2 * int(11 * rpc / 2) + 1, rpc / 6)
+    return levels
+
+
+def test_nominal_rows_per_chip():
+    assert nominal_rows_per_chip(8000.0, 27.8e-6) == pytest.approx(4.496, abs=1e-3)
+    with pytest.raises(ValueError):
+        nominal_rows_per_chip(0.0, 1e-5)
+
+
+def test_edges_sit_on_chip_boundaries():
+    rng = np.random.default_rng(0)
+    chips = random_chips(300, rng)
+    phase, exposure = 0.3, 3.6
+    levels = levels_of(chips, phase=phase, exposure_rows=exposure)
+    runs = find_runs(levels.level, levels.q)
+    inner = runs.bounds[1:-1]
+    # A chip boundary at chip position c shows at row (c - phase)·rpc - exposure/2.
+    boundaries = np.flatnonzero(np.diff(chips)) + 1
+    rows = (boundaries - phase) * RPC - exposure / 2
+    rows = rows[(rows > 0) & (rows < levels.level.size - 1)]
+    assert inner.size == rows.size
+    assert np.max(np.abs(inner - rows)) < 0.15
+
+
+def test_recovered_chips_with_row_time_errors():
+    rng = np.random.default_rng(1)
+    chips = random_chips(400, rng)
+    levels = levels_of(chips, phase=0.5, noise=2.0, rng=rng)
+    runs = merge_glitches(find_runs(levels.level, levels.q), RPC)
+    for error in (-0.03, -0.015, 0.0, 0.015, 0.03):
+        stream = runs_to_chips(runs, RPC * (1 + error), levels.q)
+        got = stream.values
+        # The stream starts inside chip 0 (cut) or at chip 1.
+        offset = 1 if got.size < chips.size - 1 else 0
+        n = min(got.size, chips.size - offset - 1)
+        assert np.array_equal(got[1:n], chips[offset + 1 : offset + n])
+
+
+def test_chip_positions_and_confidence():
+    chips = np.array([1, 0, 1, 1, 0, 0, 1, 0, 1, 1, 1, 0, 1, 0] * 3)
+    levels = levels_of(chips, exposure_rows=0.5)
+    runs = find_runs(levels.level, levels.q)
+    stream = runs_to_chips(runs, RPC, levels.q)
+    assert np.array_equal(stream.values, chips[: stream.values.size])
+    starts = np.arange(stream.values.size) * RPC - 0.25
+    # An exposure of half a row makes sharp steps: edges are known to +-0.5 row.
+    assert np.allclose(stream.start[1:-1], starts[1:-1], atol=0.55)
+    assert np.all(stream.confidence[1:-1] > 0.8)
+    assert np.all(stream.exact[1:-1])
+
+
+def test_cut_runs_are_laid_from_their_real_edge():
+    # A 3-chip ON run cut to 2.6 chips by the region's start: 3 chips laid back
+    # from its real (falling) edge; the first reaches 0.4 chip past the cut.
+    runs = Runs(np.array([-0.5, 2.6 * RPC - 0.5, 3.6 * RPC - 0.5, 5.6 * RPC - 0.5]), np.array([1, 0, 1], np.int8))
+    stream = runs_to_chips(runs, RPC)
+    assert stream.values.tolist() == [1, 1, 1, 0, 1, 1]
+    assert stream.start[0] == pytest.approx(-0.5 - 0.4 * RPC)
+    assert stream.exact.tolist() == [False, True, True, True, True, True]
+
+
+def test_erasures_cost_chips_and_cut_runs():
+    runs = Runs(np.array([-0.5, 9.0, 13.5, 31.5, 40.5]), np.array([0, 1, -1, 0], np.int8))
+    stream = runs_to_chips(runs, RPC)
+    assert stream.values.tolist() == [0, 0, 1, -1, -1, -1, -1, 0, 0]
+    assert stream.confidence[3] == 0.0
+
+
+def test_glitches_merge_into_their_neighbours():
+    runs = Runs(np.array([-0.5, 9.0, 10.0, 18.0, 22.5, 23.0, 31.5]), np.array([1, 0, 1, 0, 1, 0], np.int8))
+    merged = merge_glitches(runs, RPC)
+    assert merged.values.tolist() == [1, 0]
+    assert merged.bounds.tolist() == [-0.5, 18.0, 31.5]
+
+
+@pytest.mark.parametrize("code", ["manchester", "random"])
+@pytest.mark.parametrize("rpc", [2.2, 4.5, 11.3])
+def test_rows_per_chip_estimate(code, rpc):
+    rng = np.random.default_rng(int(rpc * 10))
+    chips = random_chips(600, rng, code)
+    levels = levels_of(chips, rpc=rpc, exposure_rows=0.4 * rpc, noise=1.0, rng=rng)
+    estimate = estimate_rows_per_chip(find_runs(levels.level, levels.q))
+    assert estimate == pytest.approx(rpc, rel=0.005)
+
+
+def test_rows_per_chip_needs_runs():
+    assert estimate_rows_per_chip(Runs(np.array([-0.5, 99.5]), np.array([-1], np.int8))) is None
