@@ -26,6 +26,8 @@ from decoder.region import block_means, choose_factor, detect_regions
 from decoder.timing import (
     MIN_ROWS_PER_CHIP,
     Runs,
+    correct_edge_bias,
+    edge_bias_chips,
     estimate_rows_per_chip,
     find_runs,
     merge_glitches,
@@ -123,6 +125,26 @@ def led_edges(runs: Runs, levels: Binarized, pitch: float):
     return cut_left, cut_right, span
 
 
+# Row noise, as a fraction of the stripe contrast, above which the profile is
+# smoothed before binarisation.
+SMOOTH_NOISE_FRACTION = 0.05
+
+
+def smoothing_rows(profile: RowProfile, rows_per_chip: float) -> float:
+    """Sigma (rows) of the Gaussian smoothing before binarisation.
+
+    A sixth of a chip averages noise without moving edges; but under
+    saturation a lone OFF chip may be a single dark row, which that
+    smoothing would halve. So a profile whose row noise is small against its
+    contrast (the usual case: each row averages hundreds of pixels) is not
+    smoothed at all.
+    """
+    low, high = np.percentile(profile.values, [5.0, 95.0])
+    if np.median(profile.noise) < SMOOTH_NOISE_FRACTION * (high - low):
+        return 0.0
+    return rows_per_chip / 6.0
+
+
 def decode_profile(
     profile: RowProfile,
     phy: PhyFormat,
@@ -166,11 +188,14 @@ def decode_profile(
         profile.values,
         profile.noise,
         envelope_window_rows(phy, pitch),
-        smooth_rows=pitch / 6.0,
+        smooth_rows=smoothing_rows(profile, pitch),
         min_contrast=min_contrast,
         min_run_rows=0.5 * pitch,
     )
-    runs = merge_glitches(find_runs(levels.level, levels.q), pitch)
+    runs = find_runs(levels.level, levels.q)
+    # Before glitches are merged: under saturation a lone OFF chip can look
+    # shorter than half a chip until the edge bias is taken out.
+    runs = merge_glitches(correct_edge_bias(runs, edge_bias_chips(runs, pitch), pitch), pitch)
     edges = led_edges(runs, levels, pitch)
     if edges is None:
         return []

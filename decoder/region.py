@@ -8,6 +8,10 @@ taller than the longest OFF run, and take the connected components (outer
 contours, filled). Each region then grows up and down over fainter blocks,
 where the footprint's top and bottom only partly cover a block.
 
+An LED too dim for its ON bands to clear the noise may still show a mean
+level above the background: failing the first split, the threshold is sought
+again on blocks averaged over the closing height as well (whole chips).
+
 A frame without an LED (black, saturated, pure noise, a flat wall) yields no
 region: Otsu's two classes must be separated by several times the noise,
 measured from horizontal pixel differences, which cancel the stripes
@@ -214,29 +218,16 @@ def detect_regions(
     blocks = image.blocks
     gray = blocks @ np.full(blocks.shape[2], 1.0 / blocks.shape[2], np.float32) if blocks.ndim == 3 else blocks
     noise = max(horizontal_noise(gray, row_step=2), _noise_floor(image, gray))
-    smoothed = gray.shape[1] >= 2 * SMOOTH_BLOCKS
-    if smoothed:
-        # Stripes are horizontal: averaging along rows cuts the noise and
-        # keeps them.
-        gray = cv2.blur(gray, (SMOOTH_BLOCKS, 1), borderType=cv2.BORDER_REFLECT)
-        noise /= np.sqrt(SMOOTH_BLOCKS)
-    split = otsu_threshold(gray)
-    if split is None:
-        return []
-    threshold, mean_low, mean_high = split
-    if mean_high - mean_low < min_separation * noise:
-        return []
     # Odd, so that the kernel is centred and the closing never removes pixels.
     kernel_rows = 2 * int(np.ceil(0.5 * min(close_rows / image.factor, gray.shape[0]))) + 1
-    bright = (gray > threshold).astype(np.uint8)
-    if smoothed:
-        # The row average spreads the footprint's sides by up to two blocks;
-        # take one back so the mask mixes in less background.
-        bright = cv2.erode(bright, np.ones((1, 3), np.uint8))
-    bright = close_vertically(bright, kernel_rows)
-    # Blocks straddling the footprint's top or bottom edge are dimmer; a
-    # lower threshold picks them up (near a region only).
-    faint = min(threshold, max(mean_low + 0.5 * (threshold - mean_low), mean_low + 4.0 * noise))
+    found = bright_mask(gray, noise, kernel_rows, 1, min_separation)
+    if found is None:
+        # A dim LED in noise: its ON bands may not clear the background by
+        # enough, while its mean level over a few chips still does.
+        found = bright_mask(gray, noise, kernel_rows, kernel_rows, min_separation)
+    if found is None:
+        return []
+    bright, smooth, faint = found
     # Outer contours are much faster than labelled components with stats;
     # filling them also closes any holes left inside a footprint.
     contours, _ = cv2.findContours(bright, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
@@ -251,11 +242,59 @@ def detect_regions(
         cv2.drawContours(mask, contours, i, 1, thickness=cv2.FILLED, offset=(-x, -y))
         area = int(cv2.countNonZero(mask))
         if area >= min_area_blocks:
-            mask, y = _extend_ends(gray, mask, x, y, faint, kernel_rows)
+            mask, y = _extend_ends(smooth, mask, x, y, faint, kernel_rows)
             regions.append(_region_from_mask(image, mask, x, y, area))
         if len(regions) == max_regions:
             break
     return regions
+
+
+def bright_mask(gray: np.ndarray, noise: float, kernel_rows: int, average_rows: int, min_separation: float):
+    """Candidate LED blocks: Otsu's bright class, its bands closed vertically.
+
+    Parameters
+    ----------
+    gray : ndarray, shape (rows, cols)
+        Block means.
+    noise : float
+        Noise sigma of one block mean.
+    kernel_rows : int
+        Height of the vertical closing, in blocks (odd).
+    average_rows : int
+        Blocks averaged down columns first (odd): 1 keeps the stripes, so
+        that ON bands are thresholded; more averages whole chips into the
+        LED's mean level, for an LED too dim for its bands to stand out.
+    min_separation : float
+        Otsu's class means must lie this many sigmas (of the averaged
+        blocks) apart.
+
+    Returns
+    -------
+    (mask, smooth, faint) or None
+        The uint8 mask; the averaged image and a lower threshold, which grow
+        a region over the footprint's fainter ends. None when the two classes
+        are not clearly apart.
+    """
+    width = SMOOTH_BLOCKS if gray.shape[1] >= 2 * SMOOTH_BLOCKS else 1
+    height = max(1, min(int(average_rows), 2 * ((gray.shape[0] - 1) // 2) + 1))
+    # Stripes are horizontal: averaging along rows cuts the noise and keeps them.
+    smooth = cv2.blur(gray, (width, height), borderType=cv2.BORDER_REFLECT) if width * height > 1 else gray
+    sigma = noise / np.sqrt(width * height)
+    split = otsu_threshold(smooth)
+    if split is None:
+        return None
+    threshold, mean_low, mean_high = split
+    if mean_high - mean_low < min_separation * sigma:
+        return None
+    bright = (smooth > threshold).astype(np.uint8)
+    if width > 1:
+        # The row average spreads the footprint's sides by up to two blocks;
+        # take one back so the mask mixes in less background.
+        bright = cv2.erode(bright, np.ones((1, 3), np.uint8))
+    # Blocks straddling the footprint's top or bottom edge are dimmer; a
+    # lower threshold picks them up (near a region only).
+    faint = min(threshold, max(mean_low + 0.5 * (threshold - mean_low), mean_low + 4.0 * sigma))
+    return close_vertically(bright, kernel_rows), smooth, faint
 
 
 def close_vertically(mask: np.ndarray, kernel_rows: int) -> np.ndarray:

@@ -31,6 +31,10 @@ from decoder.timing import find_runs
 
 # Fewer edges than this in a frame give no estimate from it.
 MIN_EDGES = 8
+# Edges of a square wave sit on their regression line to a fraction of a row;
+# an RMS residual above this fraction of the period means the frame shows
+# something else (data, or no stripes), and it gives no estimate.
+MAX_RESIDUAL_PERIODS = 0.1
 
 
 class RowTimeError(ValueError):
@@ -84,6 +88,9 @@ def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, flo
     Returns
     -------
     (period_rows, standard_error_rows, n_edges) or None
+        None with too few edges, or when the edges do not fit one period
+        (RMS residual above :data:`MAX_RESIDUAL_PERIODS` of it): not a
+        square wave.
     """
     window = 2 * int(1.5 * guess_rows) + 1  # every window holds ON and OFF rows
     levels = binarize_profile(profile.values, profile.noise, window, guess_rows / 12.0)
@@ -113,6 +120,8 @@ def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, flo
         return None
     period = float(np.sum(k * e) / sxx)
     residual = e - period * k
+    if np.sqrt(np.mean(residual**2)) > MAX_RESIDUAL_PERIODS * period:
+        return None
     dof = max(1, k.size - 1 - len(groups))
     stderr = float(np.sqrt(np.sum(residual**2) / dof / sxx))
     return period, stderr, int(k.size)

@@ -128,6 +128,77 @@ def find_runs(level: np.ndarray, q: np.ndarray) -> Runs:
     return Runs(bounds, values)
 
 
+# Runs in the sliding window of the local edge-bias estimate (about 20
+# chips): saturation varies along a footprint (a disk's short chords at its
+# ends hold more partly covered pixels, which saturate later).
+BIAS_WINDOW_RUNS = 15
+
+
+def edge_bias_chips(runs: Runs, rows_per_chip: float, min_runs: int = 8, window_runs: int = BIAS_WINDOW_RUNS) -> np.ndarray:
+    """How much longer ON runs look than OFF runs, in chips (β), run by run.
+
+    Saturation (and blooming) makes a row read as ON as soon as a small part
+    of its exposure sees an ON chip, so every rising edge is found early and
+    every falling edge late by the same amount: ON runs look k + β chips
+    long and OFF runs k − β. β is the circular mean of the runs' fractional
+    lengths (ON runs counted as +length, OFF runs as −length), among runs
+    with a real edge on both sides. Its alias (β or β − 1) is the one under
+    which the short runs still hold at least one chip each. The same mean
+    over a sliding window of ``window_runs`` runs follows β along the
+    profile, taking the alias nearest the global one.
+
+    Returns
+    -------
+    ndarray of float64, shape (m,)
+        β of each run, in (−1.5, 1.5); zeros when there are too few runs
+        to tell.
+    """
+    values = runs.values
+    beta = np.zeros(values.size)
+    if values.size < 3:
+        return beta
+    inner = np.zeros(values.size, dtype=bool)
+    inner[1:-1] = (values[1:-1] >= 0) & (values[:-2] >= 0) & (values[2:] >= 0)
+    chips = runs.lengths / rows_per_chip
+    on, off = inner & (values == 1), inner & (values == 0)
+    if on.sum() + off.sum() < min_runs or not on.any() or not off.any():
+        return beta
+    phasor = np.where(on, np.exp(2j * np.pi * chips), np.where(off, np.exp(-2j * np.pi * chips), 0.0))
+    overall = float((np.angle(phasor.sum()) / (2 * np.pi)) % 1.0)
+    # The alias under which the short runs (a low percentile, robust to
+    # noise glitches) of both levels still round to at least one chip.
+    short_on, short_off = np.percentile(chips[on], 10.0), np.percentile(chips[off], 10.0)
+    aliases = [c for c in (overall, overall - 1.0) if np.rint(short_on - c) >= 1 and np.rint(short_off + c) >= 1]
+    if not aliases:
+        return beta
+    overall = aliases[0]
+    kernel = np.ones(min(window_runs, values.size))
+    local = np.convolve(phasor.real, kernel, "same") + 1j * np.convolve(phasor.imag, kernel, "same")
+    counts = np.convolve(inner.astype(float), kernel, "same")
+    phase = np.angle(local) / (2 * np.pi)
+    nearest = phase + np.rint(overall - phase)
+    return np.where(counts >= 0.5 * kernel.size, nearest, overall)
+
+
+def correct_edge_bias(runs: Runs, beta_chips: np.ndarray, rows_per_chip: float) -> Runs:
+    """Move each rising edge later and each falling edge earlier by β/2 chip.
+
+    ``beta_chips`` is per run (:func:`edge_bias_chips`); an edge takes the
+    mean of its two runs'. Edges to or from an erasure are cuts, not level
+    changes, and stay.
+    """
+    if runs.values.size < 2 or not np.any(beta_chips):
+        return runs
+    before, after = runs.values[:-1], runs.values[1:]
+    shift = 0.25 * (beta_chips[:-1] + beta_chips[1:]) * rows_per_chip
+    step = np.where((before == 0) & (after == 1), shift, np.where((before == 1) & (after == 0), -shift, 0.0))
+    bounds = runs.bounds.copy()
+    bounds[1:-1] += step
+    # A correction never reorders edges: clip into the profile and keep order.
+    bounds[1:-1] = np.clip(bounds[1:-1], bounds[0], bounds[-1])
+    return Runs(np.maximum.accumulate(bounds), runs.values)
+
+
 def merge_glitches(runs: Runs, rows_per_chip: float, passes: int = 3) -> Runs:
     """Absorb runs shorter than half a chip into their neighbours.
 

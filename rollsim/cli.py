@@ -33,9 +33,10 @@ def cmd_scenes(args) -> int:
     """List the bundled scenes with their one-line descriptions."""
     from rollsim.scene import bundled_scene_paths, read_yaml
 
-    for path in bundled_scene_paths():
-        data = read_yaml(path)
-        print(f"{path.stem:<16} {data.get('description', '')}")
+    paths = bundled_scene_paths()
+    width = max((len(p.stem) for p in paths), default=0)
+    for path in paths:
+        print(f"{path.stem:<{width}}  {read_yaml(path).get('description', '')}")
     return EXIT_OK
 
 
@@ -89,6 +90,104 @@ def cmd_render(args) -> int:
         )
     print(f"wrote {summary.frames} frames of {scene.name} to {summary.out_dir} ({summary.workers} workers)")
     return EXIT_OK
+
+
+def _decode_settings(args, run_dir: Path):
+    """Decode settings: --scene, else the render's scene.resolved.yaml, else
+    the default link (--set overrides) with --clock-hz / --row-time-us."""
+    from rollsim.decode import settings_from_scene
+    from rollsim.scene import load_scene, scene_from_dict
+
+    resolved = run_dir / "scene.resolved.yaml"
+    if args.scene is not None:
+        scene = load_scene(args.scene, args.overrides)
+    elif resolved.exists():
+        scene = load_scene(resolved, args.overrides)
+    else:
+        if args.clock_hz is None:
+            raise RollsimError(f"{run_dir}: no scene.resolved.yaml; give --scene FILE or --clock-hz F [--row-time-us T]")
+        scene = scene_from_dict({}, "<default link>", args.overrides)
+        settings = settings_from_scene(scene, args.clock_hz, args.row_time_us)
+        # Without a row time the decoder estimates the chip pitch itself.
+        return settings if args.row_time_us is not None else type(settings)(settings.phy, settings.clock_hz, None)
+    return settings_from_scene(scene, args.clock_hz, args.row_time_us)
+
+
+def cmd_decode(args) -> int:
+    """Decode the frames of a directory into DIR/decoded.jsonl."""
+    from tqdm import tqdm
+
+    from rollsim.decode import decode_directory, frame_files
+
+    run_dir = Path(args.dir)
+    settings = _decode_settings(args, run_dir)
+    n_files = len(frame_files(run_dir))
+    workers = args.workers or _default_workers()
+    with tqdm(total=n_files, unit="frame", desc="decode", disable=args.quiet or None) as bar:
+        summary = decode_directory(
+            run_dir, settings, workers=workers, force=args.force,
+            on_error=lambda e: tqdm.write(f"rollsim: skipped frame {e['frame']}: {e['error']}", file=sys.stderr),
+            progress=lambda n: bar.update(1),
+        )
+    print(
+        f"decoded {summary.frames} frames of {run_dir}: {summary.sdus} PHY-SDUs, {summary.sdus_ok} passed the check, "
+        f"{len(summary.unreadable)} frames unreadable -> {run_dir / 'decoded.jsonl'}"
+    )
+    return EXIT_OK
+
+
+def cmd_evaluate(args) -> int:
+    """Give every emitted PHY-SDU its outcome; write outcomes.csv and evaluation.json."""
+    from rollsim.evaluate import evaluate_directory, format_summary
+
+    result = evaluate_directory(Path(args.dir), force=args.force)
+    print(format_summary(result.summary))
+    return EXIT_OK
+
+
+def _png_paths(items: Sequence[str]) -> list[Path]:
+    """Files as given; a directory stands for its PNG frames."""
+    from rollsim.decode import frame_files
+
+    paths: list[Path] = []
+    for item in items:
+        path = Path(item)
+        paths.extend(frame_files(path) if path.is_dir() else [path])
+    return paths
+
+
+def cmd_estimate_row_time(args) -> int:
+    """Row time of a camera from frames of an LED sending the square pattern."""
+    from decoder import FrameReadError, RowTimeError, estimate_row_time, read_frame
+
+    if not args.clock_hz > 0:
+        raise RollsimError(f"--clock-hz = {args.clock_hz}: must be > 0")
+    skipped = []
+
+    def readable_frames():
+        for path in _png_paths(args.frames):
+            try:
+                yield read_frame(path)
+            except FrameReadError as exc:
+                skipped.append(str(exc))
+                print(f"rollsim: skipped frame: {exc}", file=sys.stderr)
+
+    try:
+        row_time_s, sigma_s = estimate_row_time(readable_frames(), args.clock_hz)
+    except RowTimeError as exc:
+        raise RollsimError(str(exc)) from None
+    result = {"row_time_us": row_time_s * 1e6, "uncertainty_us": sigma_s * 1e6, "clock_hz": args.clock_hz,
+              "frames_unreadable": len(skipped)}
+    if args.json:
+        _write_text(args.json, json.dumps(result, indent=2) + "\n")
+    print(f"row time {row_time_s * 1e6:.4f} us +- {sigma_s * 1e6:.4f} us (1 sigma), {len(skipped)} frames unreadable")
+    return EXIT_OK
+
+
+def _default_workers() -> int:
+    from rollsim.render.writer import default_workers
+
+    return default_workers()
 
 
 def cmd_analytic(args) -> int:
@@ -182,6 +281,18 @@ def _bench_render_main(args) -> int:
     return bench_main(args)
 
 
+def _bench_decode_main(args) -> int:
+    from rollsim.bench.decode import main as bench_main
+
+    return bench_main(args)
+
+
+def _bench_stress_main(args) -> int:
+    from rollsim.bench.stress import main as bench_main
+
+    return bench_main(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rollsim",
@@ -218,6 +329,30 @@ def build_parser() -> argparse.ArgumentParser:
     _add_set_option(p)
     p.set_defaults(func=cmd_render)
 
+    p = sub.add_parser("decode", help="decode the PHY-SDUs of a directory of frames into DIR/decoded.jsonl")
+    p.add_argument("dir", metavar="DIR", help="a render directory (frames/*.png) or a folder of PNG frames")
+    p.add_argument("--scene", metavar="FILE", default=None,
+                   help="scene giving the link and camera (default: DIR/scene.resolved.yaml)")
+    p.add_argument("--clock-hz", type=float, default=None, help="chip rate in Hz (overrides the scene)")
+    p.add_argument("--row-time-us", type=float, default=None,
+                   help="row time in us (overrides the scene; without a scene and without it, estimated from the frames)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
+    p.add_argument("--force", action="store_true", help="replace an existing decoded.jsonl")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_set_option(p)
+    p.set_defaults(func=cmd_decode)
+
+    p = sub.add_parser("evaluate", help="outcome of every emitted PHY-SDU against the truth: DIR/outcomes.csv, DIR/evaluation.json")
+    p.add_argument("dir", metavar="DIR", help="a rendered and decoded directory")
+    p.add_argument("--force", action="store_true", help="replace existing outcomes.csv and evaluation.json")
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("estimate-row-time", help="row time of a camera from frames of a square-wave LED")
+    p.add_argument("frames", nargs="+", metavar="FRAMES", help="PNG frames, or directories of them")
+    p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
+    p.add_argument("--json", metavar="FILE", help="also write the estimate as JSON")
+    p.set_defaults(func=cmd_estimate_row_time)
+
     p = sub.add_parser("analytic", help="p0 and P(message) against r under MMBP and Gilbert-Elliott (paper Fig. 7-9)")
     p.add_argument("--M", type=_non_negative_int, default=5, help="ON slots per frame (default 5, paper Fig. 8)")
     p.add_argument("--N", type=_non_negative_int, default=2, help="OFF slots per frame (default 2)")
@@ -245,6 +380,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     p.set_defaults(func=cmd_bench, bench_main=_bench_eventsim_main)
+
+    p = bench_sub.add_parser("decode", help="decoder ms per 1080p frame in memory (one core), and PNG read time")
+    p.add_argument("--frames", type=_positive_int, default=30, help="frames timed per scene (default 30)")
+    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.set_defaults(func=cmd_bench, bench_main=_bench_decode_main)
+    p = bench_sub.add_parser("stress", help="decoder outcome rates on the paper, stress and effect scenes (the README table)")
+    p.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: every bundled paper-, stress- and effect- scene)")
+    p.add_argument("--frames", type=_positive_int, default=100, help="frames per scene (default 100)")
+    p.add_argument("--workers", type=_positive_int, default=2, help="scenes in parallel (default 2)")
+    p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown")
+    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    p.set_defaults(func=cmd_bench, bench_main=_bench_stress_main)
 
     p = sub.add_parser("simulate", help="broadcast the scene's message over a channel model (CamComSim's job)")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")

@@ -214,6 +214,66 @@ def summarise(outcomes: list[dict], false_decodes: list, n_frames: int) -> dict:
     }
 
 
+def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
+    """Evaluate a decoded render directory; write ``outcomes.csv`` and ``evaluation.json``.
+
+    Reads ``truth.jsonl``, ``decoded.jsonl`` and ``scene.resolved.yaml`` (and
+    ``decode.json``, when present, for the frames that could not be read;
+    their count goes into the summary as ``frames_unreadable``).
+
+    Parameters
+    ----------
+    run_dir : Path
+    force : bool
+        Replace existing outputs; without it they are never overwritten.
+
+    Raises
+    ------
+    RollsimError
+        A missing or malformed input file (named), or an existing output
+        without ``force``.
+    """
+    from rollsim.outdir import write_text_atomic
+    from rollsim.scene import load_scene
+    from rollsim.transmitter import transmitter_from_scene
+
+    run_dir = Path(run_dir)
+    if not run_dir.is_dir():
+        raise RollsimError(f"{run_dir}: not a directory")
+    scene_file = run_dir / "scene.resolved.yaml"
+    if not scene_file.exists():
+        raise RollsimError(f"{scene_file}: not found; evaluate needs a directory written by `rollsim render`")
+    decoded_file = run_dir / "decoded.jsonl"
+    if not decoded_file.exists():
+        raise RollsimError(f"{decoded_file}: not found; run `rollsim decode {run_dir}` first")
+    targets = (run_dir / "outcomes.csv", run_dir / "evaluation.json")
+    for target in targets:
+        if target.exists() and not force:
+            raise RollsimError(f"{target}: exists; use --force to replace it")
+    truth = read_jsonl(run_dir / "truth.jsonl")
+    decoded = read_jsonl(decoded_file)
+    _check_decoded(decoded, decoded_file)
+    result = evaluate(truth, decoded, transmitter_from_scene(load_scene(scene_file)))
+    decode_info = run_dir / "decode.json"
+    unreadable = json.loads(decode_info.read_text(encoding="utf-8")).get("unreadable", []) if decode_info.exists() else []
+    result.summary["frames_unreadable"] = len(unreadable)
+    report = {"summary": result.summary, "false_decodes": result.false_decodes, "unreadable": unreadable}
+    write_text_atomic(targets[0], outcomes_csv(result.outcomes))
+    write_text_atomic(targets[1], json.dumps(report, indent=2, allow_nan=False) + "\n")
+    return result
+
+
+DECODED_FIELDS = ("frame", "first_row", "last_row", "sequence", "bits", "check_ok")
+
+
+def _check_decoded(records: list[dict], path: Path) -> None:
+    """One-line error for a decoded record without the fields matching needs."""
+    for number, record in enumerate(records, start=1):
+        missing = [name for name in DECODED_FIELDS if name not in record] if isinstance(record, dict) else list(DECODED_FIELDS)
+        if missing:
+            raise RollsimError(f"{path}: record {number}: missing {', '.join(missing)}")
+
+
 def outcomes_csv(outcomes: list[dict]) -> str:
     """The outcome table as CSV text (columns :data:`OUTCOME_COLUMNS`)."""
     import io
@@ -232,7 +292,11 @@ def format_summary(summary: dict) -> str:
     def rate(value):
         return "n/a" if value is None else f"{100 * value:.3f} %"
 
-    lines = [f"frames {summary['frames']}, emissions {summary['emissions']}, fully visible {summary['fully_visible']}"]
+    unreadable = summary.get("frames_unreadable")
+    lines = [
+        f"frames {summary['frames']}" + (f" ({unreadable} unreadable)" if unreadable else "")
+        + f", emissions {summary['emissions']}, fully visible {summary['fully_visible']}"
+    ]
     lines += [f"  {name:<17} {count}" for name, count in summary["counts"].items()]
     lines += [
         f"  {'false decodes':<17} {summary['false_decodes']}",

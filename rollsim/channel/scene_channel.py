@@ -34,8 +34,8 @@ from rollsim.channel.channels import CamcomsimChannel, MmbpChannel, TimedChannel
 from rollsim.channel.eventsim import DEFAULT_MAX_EMISSIONS, BroadcastResult, simulate_broadcast
 from rollsim.optics.geometry import led_rows
 from rollsim.protocol.packets import n_packets as packets_of_message
-from rollsim.protocol.phy import PhyFormat
 from rollsim.transmitter.schedule import Schedule
+from rollsim.transmitter.transmitter import phy_from_scene
 
 __all__ = [
     "CHANNEL_KINDS",
@@ -60,9 +60,7 @@ def _check_kind(kind) -> str:
 
 def sdu_duration_from_scene(scene) -> float:
     """Duration of one PHY-SDU in seconds (SYNC, coded header, payload, check)."""
-    link = scene.link
-    phy = PhyFormat(link.header_bits, link.payload_bits, link.check, link.line_code)
-    return phy.sdu_duration_s(link.clock_hz)
+    return phy_from_scene(scene).sdu_duration_s(scene.link.clock_hz)
 
 
 def led_row_count(scene) -> int:

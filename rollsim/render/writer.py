@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import json
 import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator, Optional
@@ -20,6 +19,7 @@ from typing import Callable, Iterator, Optional
 import cv2
 
 from rollsim.outdir import atomic_output_dir
+from rollsim.parallel import chunked, ordered_chunk_map
 from rollsim.render.pipeline import RenderPipeline
 from rollsim.scene import scene_to_yaml
 
@@ -69,27 +69,10 @@ def _render_chunk(indices: list[int], frames_dir: Path) -> list[dict]:
     return truths
 
 
-def _chunks(n_frames: int, size: int) -> Iterator[list[int]]:
-    for first in range(0, n_frames, size):
-        yield list(range(first, min(n_frames, first + size)))
-
-
 def _written_frames(scene, n_frames: int, workers: int, frames_dir: Path) -> Iterator[dict]:
     """Render and write every frame; yield the truth records in frame order."""
-    if workers <= 1:
-        _init_worker(scene)
-        for chunk in _chunks(n_frames, CHUNK_FRAMES):
-            yield from _render_chunk(chunk, frames_dir)
-        return
-    with ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(scene,)) as pool:
-        pending = []
-        # A bounded window of chunks in flight keeps memory flat.
-        for chunk in _chunks(n_frames, CHUNK_FRAMES):
-            pending.append(pool.submit(_render_chunk, chunk, frames_dir))
-            if len(pending) >= 2 * workers:
-                yield from pending.pop(0).result()
-        for future in pending:
-            yield from future.result()
+    chunks = chunked(range(n_frames), CHUNK_FRAMES)
+    yield from ordered_chunk_map(_render_chunk, chunks, workers, frames_dir, initializer=_init_worker, initargs=(scene,))
 
 
 def default_workers() -> int:

@@ -150,12 +150,17 @@ def build_transmitter(
     return Transmitter(phy, message, payloads, sdu_chips, schedule, pattern, waveform)
 
 
+def phy_from_scene(scene) -> PhyFormat:
+    """The PHY-SDU layout of a scene's link."""
+    link = scene.link
+    return PhyFormat(link.header_bits, link.payload_bits, link.check, link.line_code)
+
+
 def transmitter_from_scene(scene) -> Transmitter:
     """The transmitter a validated :class:`rollsim.scene.Scene` describes."""
     link = scene.link
-    phy = PhyFormat(link.header_bits, link.payload_bits, link.check, link.line_code)
     return build_transmitter(
-        phy,
+        phy_from_scene(scene),
         message_from_seed(scene.seed, link.message_bytes),
         strategy=link.strategy,
         repeats=link.repeats,

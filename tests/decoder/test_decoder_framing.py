@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from synth import profile_from_chips
 
-from rollsim.protocol import PhyFormat
+from rollsim.protocol import PhyFormat, sync_pattern
 from decoder.framing import CHECK_FAILED, CODE_ERROR, ERASURE, OK, TRUNCATED, decode_chip_stream, find_sync_starts
 from decoder.pipeline import decode_profile
 from decoder.profile import RowProfile
@@ -102,3 +102,36 @@ def test_no_false_accepts_on_random_binary_profiles():
         accepted += sum(s.check_ok for s in found)
     assert candidates > 10_000  # random chips hold many SYNC-like runs
     assert accepted == 0
+
+
+@pytest.mark.parametrize("check, expected", [("parity2", 0.25), ("crc8", 1 / 256)])
+def test_check_code_false_accept_rate_through_the_decoder(check, expected):
+    """The check code's false-accept rate, measured through the whole decoder.
+
+    10,000 random codewords (random header, payload and check bits), each
+    line-coded after a SYNC as the transmitter would, 50 back to back per
+    profile: every one is a valid-looking PHY-SDU whose check bits are
+    random. The fraction the decoder reports ``ok`` is the check code's
+    false-accept rate: 1/4 for parity2 (two parity bits), 1/256 for CRC-8.
+    Junk that is not even valid line code (the test above) is rejected by
+    the line code first: 2^-26 of random chips pass Manchester decoding.
+    """
+    phy = PhyFormat(5, 19, check)
+    rng = np.random.default_rng(21)
+    n, per_profile = 10_000, 50
+    accepted = candidates = 0
+    for _ in range(n // per_profile):
+        bits = rng.integers(0, 2, (per_profile, phy.codeword_bits)).astype(np.uint8)
+        coded = np.stack([1 - bits, bits], axis=2).reshape(per_profile, -1)  # Manchester
+        sync = np.tile(sync_pattern(phy.line_code), (per_profile, 1))
+        chips = np.concatenate([sync, coded], axis=1).ravel()
+        values = profile_from_chips(chips, 4.5, 3.6, rng.uniform(0, 1), on=150.0, off=20.0, noise=1.0, rng=rng)
+        found = decode_profile(RowProfile(0, values, np.full(values.size, 1.0)), phy, 4.5)
+        candidates += len(found)
+        accepted += sum(s.check_ok for s in found)
+    # The first and last PHY-SDU of a profile may be cut by its ends.
+    assert candidates >= n - 2 * (n // per_profile)
+    rate = accepted / candidates
+    sigma = np.sqrt(expected * (1 - expected) / candidates)
+    print(f"{check}: {accepted} of {candidates} random codewords accepted, rate {rate:.4f} (expected {expected:.4f})")
+    assert abs(rate - expected) < 4 * sigma

@@ -255,6 +255,18 @@ def test_raw16_with_black_level_and_other_clocks():
     assert totals["false"] == 0
 
 
+@pytest.mark.parametrize("on_dn", [2000.0, 5000.0], ids=["8x", "20x"])
+def test_saturated_stripes(on_dn):
+    """ON rows far above full scale: a row reads as ON as soon as a sliver of
+    its exposure sees an ON chip, so ON runs look longer and a lone OFF chip
+    may be a single dark row. The edge bias is measured and taken out.
+    (Far beyond this, a lone OFF chip can fall between two rows that both
+    see a sliver of ON: then it is lost to any decoder.)"""
+    totals = run_frames(8, seed=12, shape=(1080, 240), size=900, on_dn=on_dn, off_dn=20, noise_dn=4)
+    assert totals["interior_ok"] == totals["interior"] >= 8
+    assert totals["false"] == 0
+
+
 def test_two_leds_in_one_frame():
     a = synth_frame(make_transmitter(start_s=0.0042), shape=(1080, 1000), centre=(250, 540), size=420, background_dn=30)
     b = synth_frame(make_transmitter(start_s=0.0047, seed=2), shape=(1080, 1000), centre=(750, 540), size=420, background_dn=0)

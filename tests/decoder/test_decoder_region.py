@@ -89,3 +89,24 @@ def test_no_region_without_led(kind):
         "noise16": lambda: rng.integers(0, 65536, (240, 320)).astype(np.uint16),
     }[kind]()
     assert regions_of(image) == []
+
+
+def test_dim_led_is_found_by_its_mean_level():
+    """A rendered dim LED (ON rows at ~14 % of full scale over a dark, noisy
+    background): its ON bands do not clear the noise by Otsu's margin, its
+    level averaged over a few chips does."""
+    from rollsim.render import RenderPipeline
+    from rollsim.scene import load_scene
+
+    from decoder.region import bright_mask
+
+    scene = load_scene("paper-default", ["led.luminous_intensity_cd=0.0016", "environment.ambient_lux=20"])
+    pipeline = RenderPipeline(scene)
+    blocks = block_means(pipeline.render(0).image, 4)
+    noise = horizontal_noise(blocks.blocks, row_step=2)
+    kernel_rows = 7  # CLOSE_ROWS / 4, odd
+    assert bright_mask(blocks.blocks, noise, kernel_rows, 1, 5.0) is None
+    regions = detect_regions(blocks, CLOSE_ROWS)
+    assert len(regions) == 1
+    first, last = pipeline.setup.led_rows
+    assert regions[0].rows.start <= first + 8 and regions[0].rows.stop >= last - 8

@@ -72,3 +72,32 @@ def test_spectral_period_of_a_sine():
     values = 100 + 50 * np.sin(2 * np.pi * rows / 9.37)
     assert spectral_period_rows(values) == pytest.approx(9.37, rel=0.01)
     assert spectral_period_rows(np.ones(8)) is None
+
+
+# Rendered square-pattern frames of four cameras (rollsim's renderer, default
+# effects: ambient light, shot and read noise), and a noisy one: ISO 20000, a
+# dim LED at the frame's top edge over a dim background (pixel noise about 16
+# DN against a stripe contrast of about 60 DN).
+RENDERED = {
+    "nexus5": [],
+    "galaxy_s3": [],
+    "iphone4s": [],
+    "iphone3gs": [],
+    "galaxy_s3_noisy": [
+        "camera.preset=galaxy_s3", "camera.iso=20000", "led.luminous_intensity_cd=0.003",
+        "environment.ambient_lux=30", "led.position_px=[1500, 300]",
+    ],
+}
+
+
+@pytest.mark.parametrize("camera", list(RENDERED))
+def test_rendered_square_frames_of_four_cameras(camera):
+    from rollsim.render import render_frames
+    from rollsim.scene import load_scene
+
+    overrides = RENDERED[camera] or [f"camera.preset={camera}"]
+    scene = load_scene("paper-default", ["link.pattern=square", "link.distance_cm=8", *overrides])
+    images, _ = render_frames(scene, 3)
+    estimate, uncertainty = estimate_row_time(images, scene.link.clock_hz)
+    assert estimate == pytest.approx(scene.camera.row_time_s, rel=0.005)
+    assert abs(estimate - scene.camera.row_time_s) < 5 * uncertainty + 1e-4 * scene.camera.row_time_s

@@ -7,6 +7,8 @@ from synth import profile_from_chips
 from decoder.binarize import binarize_profile
 from decoder.timing import (
     Runs,
+    correct_edge_bias,
+    edge_bias_chips,
     estimate_rows_per_chip,
     find_runs,
     merge_glitches,
@@ -114,3 +116,47 @@ def test_rows_per_chip_estimate(code, rpc):
 
 def test_rows_per_chip_needs_runs():
     assert estimate_rows_per_chip(Runs(np.array([-0.5, 99.5]), np.array([-1], np.int8))) is None
+
+
+def biased_runs(chips, beta, rpc=RPC, jitter=0.0, rng=None):
+    """Runs of a chip sequence whose ON runs are ``beta`` chips too long."""
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(chips)) + 1])
+    values = chips[starts].astype(np.int8)
+    bounds = np.concatenate([starts, [chips.size]]).astype(float) * rpc - 0.5
+    inner = bounds[1:-1]
+    rising = values[1:] == 1
+    inner += np.where(rising, -0.5, 0.5) * beta * rpc
+    if jitter:
+        inner += rng.normal(0, jitter, inner.size)
+    return Runs(bounds, values), bounds.copy()
+
+
+@pytest.mark.parametrize("beta", [0.0, 0.3, 0.68, 0.85, -0.2])
+def test_edge_bias_is_measured_and_removed(beta):
+    rng = np.random.default_rng(4)
+    chips = random_chips(400, rng)
+    exact, _ = biased_runs(chips, 0.0)
+    runs, _ = biased_runs(chips, beta, jitter=0.15, rng=rng)
+    measured = edge_bias_chips(runs, RPC)
+    assert measured == pytest.approx(np.full(measured.size, beta), abs=0.06)
+    corrected = correct_edge_bias(runs, measured, RPC)
+    # Every run is back to a whole number of chips, the right one.
+    assert np.array_equal(np.rint(corrected.lengths / RPC), np.rint(exact.lengths / RPC))
+    assert np.max(np.abs(corrected.bounds - exact.bounds)) < 0.8
+
+
+def test_edge_bias_follows_a_drift_and_needs_runs():
+    rng = np.random.default_rng(5)
+    chips = random_chips(600, rng)
+    runs, _ = biased_runs(chips, 0.0)
+    # β rising from 0.45 to 0.8 along the profile, as saturation grows
+    # towards a disk's middle.
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(chips)) + 1])
+    beta_of_edge = np.interp(starts[1:], [0, chips.size], [0.45, 0.8])
+    bounds = runs.bounds.copy()
+    bounds[1:-1] += np.where(runs.values[1:] == 1, -0.5, 0.5) * beta_of_edge * RPC
+    drifting = Runs(bounds, runs.values)
+    corrected = correct_edge_bias(drifting, edge_bias_chips(drifting, RPC), RPC)
+    assert np.array_equal(np.rint(corrected.lengths / RPC), np.rint(runs.lengths / RPC))
+    few = Runs(runs.bounds[:5], runs.values[:4])
+    assert not np.any(edge_bias_chips(few, RPC))

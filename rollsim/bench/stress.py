@@ -1,0 +1,132 @@
+"""``rollsim bench stress``: the decoder's outcome rates on the stress scenes.
+
+Each scene is rendered in memory, decoded and evaluated against its truth
+(:func:`scene_outcomes`), frame by frame in constant memory; scenes run in
+parallel. The table it prints (``--markdown``) is the README's stress table.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from rollsim.bench.common import format_table, machine
+from rollsim.scene import bundled_scene_paths, load_scene, read_yaml
+
+# The scenes of the table by default: the paper's, the stress set and one
+# per optional effect.
+DEFAULT_PREFIXES = ("paper-", "stress-", "effect-")
+
+
+def default_scenes() -> list[str]:
+    """Names of the bundled paper, stress and effect scenes."""
+    return [p.stem for p in bundled_scene_paths() if p.stem.startswith(DEFAULT_PREFIXES)]
+
+
+def scene_outcomes(scene, n_frames: int) -> dict:
+    """Render, decode and evaluate ``n_frames`` of a scene in memory.
+
+    Returns
+    -------
+    dict
+        The evaluation summary (:func:`rollsim.evaluate.summarise`) plus
+        ``render_ms_per_frame`` and ``decode_ms_per_frame`` (one core).
+    """
+    from decoder import decode_frame
+    from rollsim.evaluate import evaluate
+    from rollsim.render import RenderPipeline
+    from rollsim.transmitter import phy_from_scene
+
+    pipeline = RenderPipeline(scene)
+    phy = phy_from_scene(scene)
+    truth, decoded = [], []
+    render_s = decode_s = 0.0
+    for index in range(n_frames):
+        start = time.perf_counter()
+        frame = pipeline.render(index)
+        middle = time.perf_counter()
+        found = decode_frame(frame.image, phy, scene.link.clock_hz, scene.camera.row_time_s, index)
+        decode_s += time.perf_counter() - middle
+        render_s += middle - start
+        truth.append(frame.truth)
+        decoded.extend(sdu.to_record() for sdu in found)
+    summary = evaluate(truth, decoded, pipeline.setup.transmitter).summary
+    summary["render_ms_per_frame"] = 1e3 * render_s / max(1, n_frames)
+    summary["decode_ms_per_frame"] = 1e3 * decode_s / max(1, n_frames)
+    return summary
+
+
+def _run_one(name: str, n_frames: int) -> tuple[str, str, dict]:
+    scene = load_scene(name)
+    path = next((p for p in bundled_scene_paths() if p.stem == name), None)
+    description = read_yaml(path).get("description", "") if path is not None else scene.name
+    return name, description, scene_outcomes(scene, n_frames)
+
+
+def bench_stress(scenes: list[str], n_frames: int, workers: int = 2, progress=None) -> dict:
+    """Outcome rates of every scene; a JSON-ready dict."""
+    for name in scenes:
+        load_scene(name)  # fail on a bad scene before any work
+    rows = []
+    with ProcessPoolExecutor(max(1, workers)) as pool:
+        for name, description, summary in pool.map(_run_one, scenes, [n_frames] * len(scenes)):
+            rows.append({"scene": name, "description": description, **summary})
+            if progress is not None:
+                progress(name)
+    return {"frames": n_frames, "machine": machine(), "scenes": rows}
+
+
+def _percent(value) -> str:
+    return "n/a" if value is None else f"{100 * value:.2f}"
+
+
+def table_rows(result: dict) -> list[tuple]:
+    """One row per scene: counts, rates and times."""
+    rows = []
+    for r in result["scenes"]:
+        counts = r["counts"]
+        rows.append(
+            (
+                r["scene"],
+                r["fully_visible"],
+                _percent(None if not r["fully_visible"] else 1.0 - r["error_rate"]),
+                counts["corrupted"],
+                _percent(r["missed_rate"]),
+                counts["undetected_error"],
+                f"{r['false_decodes_per_1000_frames']:.1f}",
+                f"{r['render_ms_per_frame']:.0f}",
+                f"{r['decode_ms_per_frame']:.1f}",
+            )
+        )
+    return rows
+
+
+HEADER = (
+    "scene", "fully visible", "ok %", "corrupted", "missed %", "undetected errors",
+    "false decodes / 1000 frames", "render ms/frame", "decode ms/frame",
+)
+
+
+def format_markdown(result: dict) -> str:
+    """The stress table as Markdown, with each scene's description below it."""
+    lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in table_rows(result)]
+    lines.append("")
+    lines += [f"- `{r['scene']}`: {r['description']}" for r in result["scenes"]]
+    return "\n".join(lines)
+
+
+def main(args) -> int:
+    from rollsim.outdir import write_text_atomic
+
+    scenes = args.scenes or default_scenes()
+    result = bench_stress(scenes, args.frames, args.workers)
+    print(f"rollsim bench stress: {args.frames} frames per scene, rendered, decoded and evaluated in memory")
+    print(format_table(table_rows(result), HEADER))
+    if args.markdown:
+        write_text_atomic(Path(args.markdown), format_markdown(result) + "\n")
+    if args.json:
+        write_text_atomic(Path(args.json), json.dumps(result, indent=2, allow_nan=False) + "\n")
+    return 0

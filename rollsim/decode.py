@@ -1,0 +1,196 @@
+"""Decode a directory of frames into ``decoded.jsonl``.
+
+The receiver itself is the :mod:`decoder` package; this module is the glue
+that runs it over a render directory (or any folder of PNG frames) and
+writes the results:
+
+``decoded.jsonl``
+    One line per PHY-SDU found, ``ok`` or not (see
+    :meth:`decoder.DecodedPhySdu.to_record`).
+``decode.json``
+    What was decoded with which settings, the frame count, and every frame
+    that could not be read, by name.
+
+A corrupt or unreadable frame is reported, skipped and counted; the run goes
+on. Frames are decoded in chunks by worker processes, in a bounded window so
+that memory stays flat, and written in frame order, so the output does not
+depend on the number of workers.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable, Iterator, Optional
+
+from rollsim.errors import OutputError, RollsimError
+from rollsim.parallel import chunked, ordered_chunk_map
+from rollsim.protocol import PhyFormat
+from rollsim.transmitter import phy_from_scene
+
+DECODED_NAME = "decoded.jsonl"
+SUMMARY_NAME = "decode.json"
+CHUNK_FRAMES = 8
+
+
+@dataclass(frozen=True)
+class DecodeSettings:
+    """What the decoder is told about the link and the camera.
+
+    Attributes
+    ----------
+    phy : PhyFormat
+        PHY-SDU layout.
+    clock_hz : float or None
+        Chip rate in Hz.
+    row_time_s : float or None
+        Row time in seconds. Without it (or without ``clock_hz``) the chip
+        pitch is estimated from each profile's run lengths.
+    """
+
+    phy: PhyFormat
+    clock_hz: Optional[float] = None
+    row_time_s: Optional[float] = None
+
+    def as_dict(self) -> dict:
+        return {"phy": asdict(self.phy), "clock_hz": self.clock_hz, "row_time_s": self.row_time_s}
+
+
+@dataclass
+class DecodeSummary:
+    """What a decode run did.
+
+    Attributes
+    ----------
+    frames : int
+        Frame files found.
+    sdus, sdus_ok : int
+        PHY-SDUs written to ``decoded.jsonl``, and those whose check passed.
+    unreadable : list of dict
+        ``{"frame", "source", "error"}`` for every frame that was skipped.
+    """
+
+    settings: DecodeSettings
+    frames: int = 0
+    sdus: int = 0
+    sdus_ok: int = 0
+    unreadable: list = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {
+            **self.settings.as_dict(),
+            "frames": self.frames,
+            "frames_unreadable": len(self.unreadable),
+            "sdus": self.sdus,
+            "sdus_ok": self.sdus_ok,
+            "unreadable": self.unreadable,
+        }
+
+
+def settings_from_scene(scene, clock_hz: Optional[float] = None, row_time_us: Optional[float] = None) -> DecodeSettings:
+    """Decode settings from a scene; ``clock_hz`` and ``row_time_us`` override it."""
+    clock = scene.link.clock_hz if clock_hz is None else clock_hz
+    row_time_s = scene.camera.row_time_s if row_time_us is None else row_time_us * 1e-6
+    return DecodeSettings(phy_from_scene(scene), float(clock), float(row_time_s))
+
+
+def frame_files(directory: Path) -> list[Path]:
+    """The PNG frames of a directory: ``DIR/frames/*.png``, else ``DIR/*.png``, sorted by name.
+
+    Raises
+    ------
+    RollsimError
+        No such directory, or no PNG in it.
+    """
+    directory = Path(directory)
+    if not directory.is_dir():
+        raise RollsimError(f"{directory}: not a directory")
+    sub = directory / "frames"
+    folder = sub if sub.is_dir() else directory
+    files = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".png" and not p.name.startswith("."))
+    if not files:
+        raise RollsimError(f"{folder}: no PNG frames")
+    return files
+
+
+def _decode_chunk(paths: list[str], settings: DecodeSettings) -> list[tuple[int, list[dict], Optional[dict]]]:
+    from decoder import decode_frames
+
+    out = []
+    for result in decode_frames(paths, settings.phy, settings.clock_hz, settings.row_time_s):
+        out.append((result.frame, result.to_records(), result.error_record()))
+    return out
+
+
+def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1) -> Iterator[tuple[int, list[dict], Optional[dict]]]:
+    """Decode frame files; yield ``(frame, records, error)`` in file order.
+
+    ``error`` is None for a frame that was read, else a record naming the
+    file and what is wrong with it.
+    """
+    chunks = chunked([os.fspath(p) for p in paths], CHUNK_FRAMES)
+    yield from ordered_chunk_map(_decode_chunk, chunks, workers, settings)
+
+
+def decode_directory(
+    run_dir: Path,
+    settings: DecodeSettings,
+    *,
+    workers: int = 1,
+    force: bool = False,
+    on_error: Optional[Callable[[dict], None]] = None,
+    progress: Optional[Callable[[int], None]] = None,
+) -> DecodeSummary:
+    """Decode every frame of ``run_dir``; write ``decoded.jsonl`` and ``decode.json``.
+
+    Parameters
+    ----------
+    run_dir : Path
+        A render directory (frames in ``frames/``) or a folder of PNGs.
+    settings : DecodeSettings
+    workers : int
+        Processes.
+    force : bool
+        Replace existing outputs; without it they are never overwritten.
+    on_error : callable, optional
+        Called with the error record of each unreadable frame, as it comes.
+    progress : callable, optional
+        Called with the number of frames done after each frame.
+
+    Returns
+    -------
+    DecodeSummary
+    """
+    run_dir = Path(run_dir)
+    files = frame_files(run_dir)
+    targets = [run_dir / DECODED_NAME, run_dir / SUMMARY_NAME]
+    if not force:
+        for target in targets:
+            if target.exists():
+                raise OutputError(f"{target}: exists; use --force to replace it")
+    summary = DecodeSummary(settings, frames=len(files))
+    temporary = [t.with_name(f".{t.name}.tmp-{os.getpid()}") for t in targets]
+    try:
+        with open(temporary[0], "w", encoding="utf-8") as out:
+            for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers), start=1):
+                for record in records:
+                    out.write(json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n")
+                summary.sdus += len(records)
+                summary.sdus_ok += sum(1 for r in records if r["check_ok"])
+                if error is not None:
+                    summary.unreadable.append(error)
+                    if on_error is not None:
+                        on_error(error)
+                if progress is not None:
+                    progress(done)
+        temporary[1].write_text(json.dumps(summary.as_dict(), indent=2) + "\n", encoding="utf-8")
+        for tmp, target in zip(temporary, targets):
+            os.replace(tmp, target)
+    except OSError as exc:
+        raise OutputError(f"{run_dir}: cannot write the decode results ({exc.strerror or exc})") from None
+    finally:
+        for tmp in temporary:
+            tmp.unlink(missing_ok=True)
+    return summary

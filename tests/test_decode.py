@@ -1,0 +1,169 @@
+"""rollsim decode / evaluate / estimate-row-time: directories of frames end to end."""
+
+import csv
+import json
+import shutil
+
+import cv2
+import numpy as np
+import pytest
+
+from rollsim.cli import main
+from rollsim.decode import decode_directory, frame_files, settings_from_scene
+from rollsim.evaluate import evaluate, read_jsonl
+from rollsim.scene import load_scene
+from rollsim.transmitter import transmitter_from_scene
+
+NARROW = ["camera.width_px=480"]  # fast: the disk fills the width, rows unchanged
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "paper"
+    args = ["render", "paper-default", "--out", str(out), "--frames", "8", "--workers", "1", "--quiet"]
+    assert main(args + [a for o in NARROW for a in ("--set", o)]) == 0
+    return out
+
+
+def copy_run(rendered, tmp_path):
+    run = tmp_path / "run"
+    shutil.copytree(rendered, run)
+    return run
+
+
+def test_decode_then_evaluate_writes_what_the_api_gives(rendered, tmp_path, capsys):
+    run = copy_run(rendered, tmp_path)
+    assert main(["decode", str(run), "--quiet", "--workers", "2"]) == 0
+    assert main(["evaluate", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "ok" in out and "error rate" in out
+
+    decoded = read_jsonl(run / "decoded.jsonl")
+    scene = load_scene(run / "scene.resolved.yaml")
+    expected = evaluate(read_jsonl(run / "truth.jsonl"), decoded, transmitter_from_scene(scene))
+    report = json.loads((run / "evaluation.json").read_text())
+    assert report["summary"]["counts"] == expected.summary["counts"]
+    assert report["summary"]["frames_unreadable"] == 0
+    counts = report["summary"]["counts"]
+    assert counts["ok"] >= 0.99 * report["summary"]["fully_visible"] > 0
+    assert report["summary"]["false_decodes"] == 0
+
+    with open(run / "outcomes.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [int(r["tx"]) for r in rows] == [o["tx"] for o in expected.outcomes]
+    assert {"tx", "sequence", "frame", "start_s", "end_s", "outcome", "success"} <= set(rows[0])
+    info = json.loads((run / "decode.json").read_text())
+    assert info["frames"] == 8 and info["sdus"] == len(decoded) and info["phy"]["payload_bits"] == 19
+
+
+def test_outputs_are_never_silently_overwritten(rendered, tmp_path, capsys):
+    run = copy_run(rendered, tmp_path)
+    assert main(["decode", str(run), "--quiet", "--workers", "1"]) == 0
+    before = (run / "decoded.jsonl").read_bytes()
+    assert main(["decode", str(run), "--quiet"]) == 2
+    assert "exists; use --force" in capsys.readouterr().err
+    assert main(["evaluate", str(run)]) == 0
+    assert main(["evaluate", str(run)]) == 2
+    assert main(["decode", str(run), "--quiet", "--force", "--workers", "2"]) == 0
+    # Workers do not change the output.
+    assert (run / "decoded.jsonl").read_bytes() == before
+    assert main(["evaluate", str(run), "--force"]) == 0
+
+
+def test_unreadable_frames_are_named_skipped_and_counted(rendered, tmp_path, capsys):
+    run = copy_run(rendered, tmp_path)
+    frames = frame_files(run)
+    data = frames[2].read_bytes()
+    frames[2].write_bytes(data[: len(data) // 2])
+    frames[5].write_bytes(b"not an image")
+    assert main(["decode", str(run), "--quiet", "--workers", "2"]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 2
+    assert frames[2].name in err[0] and "truncated PNG" in err[0]
+    assert frames[5].name in err[1] and "not a PNG" in err[1]
+    assert main(["evaluate", str(run)]) == 0
+    assert "(2 unreadable)" in capsys.readouterr().out
+    report = json.loads((run / "evaluation.json").read_text())
+    assert report["summary"]["frames_unreadable"] == 2
+    assert {u["frame"] for u in report["unreadable"]} == {2, 5}
+    assert report["summary"]["false_decodes"] == 0
+
+
+def test_folder_of_pngs_without_a_scene(rendered, tmp_path, capsys):
+    folder = tmp_path / "pngs"
+    shutil.copytree(rendered / "frames", folder)
+    assert main(["decode", str(folder), "--quiet"]) == 2
+    assert "--clock-hz" in capsys.readouterr().err
+    scene = load_scene(rendered / "scene.resolved.yaml")
+    row_time_us = scene.camera.row_time_s * 1e6
+    assert main(["decode", str(folder), "--quiet", "--clock-hz", "8000", "--row-time-us", str(row_time_us)]) == 0
+    given = read_jsonl(folder / "decoded.jsonl")
+    # Without the row time the chip pitch is estimated from the profiles.
+    assert main(["decode", str(folder), "--quiet", "--force", "--clock-hz", "8000"]) == 0
+    estimated = read_jsonl(folder / "decoded.jsonl")
+    assert json.loads((folder / "decode.json").read_text())["row_time_s"] is None
+    ok = lambda records: {(r["frame"], r["sequence"], r["bits"]) for r in records if r["check_ok"]}
+    assert len(ok(given)) >= 20 and ok(estimated) == ok(given)
+
+
+@pytest.mark.parametrize(
+    "kind", ["black", "saturated", "noise", "one_pixel", "two_channels", "noise16", "truncated", "rgba16"]
+)
+def test_junk_frames_never_crash_nor_decode(tmp_path, kind):
+    rng = np.random.default_rng(7)
+    folder = tmp_path / "junk"
+    folder.mkdir()
+    path = folder / "frame_000000.png"
+    images = {
+        "black": np.zeros((1080, 640), np.uint8),
+        "saturated": np.full((1080, 640), 255, np.uint8),
+        "noise": rng.integers(0, 256, (1080, 640)).astype(np.uint8),
+        "one_pixel": np.zeros((1, 1), np.uint8),
+        "two_channels": np.zeros((64, 64, 2), np.uint8),
+        "noise16": rng.integers(0, 65536, (720, 640)).astype(np.uint16),
+        "rgba16": rng.integers(0, 65536, (720, 640, 4)).astype(np.uint16),
+    }
+    if kind == "truncated":
+        ok, png = cv2.imencode(".png", images["noise"])
+        path.write_bytes(png.tobytes()[:1000])
+    elif kind == "two_channels":
+        # OpenCV cannot write 2-channel PNGs; gray + alpha is what a file holds.
+        ok, png = cv2.imencode(".png", np.zeros((64, 64, 4), np.uint8))
+        path.write_bytes(png.tobytes())
+    else:
+        cv2.imwrite(str(path), images[kind])
+    settings = settings_from_scene(load_scene("paper-default"))
+    summary = decode_directory(folder, settings)
+    assert summary.sdus_ok == 0
+    if kind in ("one_pixel", "truncated"):
+        assert len(summary.unreadable) == 1 and summary.unreadable[0]["source"].endswith("frame_000000.png")
+
+
+def test_estimate_row_time_cli(tmp_path, capsys):
+    run = tmp_path / "square"
+    args = ["render", "paper-default", "--out", str(run), "--frames", "2", "--workers", "1", "--quiet",
+            "--set", "link.pattern=square", "--set", "camera.preset=galaxy_s3"]
+    assert main(args) == 0
+    capsys.readouterr()
+    (run / "frames" / "frame_000009.png").write_bytes(b"\x89PNG\r\n\x1a\n cut")
+    report = tmp_path / "row_time.json"
+    assert main(["estimate-row-time", str(run / "frames"), "--clock-hz", "8000", "--json", str(report)]) == 0
+    captured = capsys.readouterr()
+    assert "frame_000009.png" in captured.err
+    result = json.loads(report.read_text())
+    assert result["row_time_us"] == pytest.approx(30.25, rel=0.005)
+    assert 0 < result["uncertainty_us"] < 0.005 * 30.25 and result["frames_unreadable"] == 1
+
+
+def test_estimate_row_time_refuses_data_frames(rendered, capsys):
+    assert main(["estimate-row-time", *map(str, frame_files(rendered)[:2]), "--clock-hz", "8000"]) == 2
+    assert capsys.readouterr().err.strip() == (
+        "rollsim: error: no frame shows a square-wave LED to calibrate the row time from"
+    )
+
+
+def test_decode_settings_follow_the_scene():
+    scene = load_scene("paper-10cm", ["link.check=crc8"])
+    settings = settings_from_scene(scene, row_time_us=30.0)
+    assert settings.clock_hz == 8000.0 and settings.row_time_s == pytest.approx(30e-6, rel=1e-12)
+    assert settings.phy.check == "crc8" and settings.phy.payload_bits == 19
