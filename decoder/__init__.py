@@ -12,7 +12,7 @@ calibrates the row time from square-wave frames.
 """
 
 from decoder.io import FrameError, FrameReadError, as_frame_array, read_frame
-from decoder.pipeline import decode_frame, decode_frames, decode_profile
+from decoder.pipeline import RegionView, decode_frame, decode_frames, decode_profile, inspect_frame
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
 from decoder.rowtime import RowTimeError, estimate_row_time
 
@@ -22,11 +22,13 @@ __all__ = [
     "FrameDecode",
     "FrameError",
     "FrameReadError",
+    "RegionView",
     "RowTimeError",
     "as_frame_array",
     "decode_frame",
     "decode_frames",
     "decode_profile",
     "estimate_row_time",
+    "inspect_frame",
     "read_frame",
 ]

@@ -149,6 +149,13 @@ def confident_on_span(level: np.ndarray, q: np.ndarray, min_mean: float = CONFID
     return int(starts[first]), int(starts[last] + lengths[last] - 1)
 
 
+def smooth_profile(values: np.ndarray, smooth_rows: float) -> np.ndarray:
+    """Gaussian smoothing of a profile, sigma ``smooth_rows`` rows (none below 0.3 row)."""
+    if smooth_rows < 0.3:
+        return values
+    return gaussian_filter1d(values, smooth_rows, mode="nearest", truncate=3.0)
+
+
 def binarize_profile(
     values: np.ndarray,
     noise: np.ndarray,
@@ -186,7 +193,7 @@ def binarize_profile(
     values = np.asarray(values, dtype=np.float64)
     if values.size == 0:
         return Binarized(np.zeros(0, np.int8), np.zeros(0))
-    smooth = gaussian_filter1d(values, smooth_rows, mode="nearest", truncate=3.0) if smooth_rows >= 0.3 else values
+    smooth = smooth_profile(values, smooth_rows)
     upper, lower = envelopes(smooth, window_rows)
     half_gap = 0.5 * (upper - lower)
     valid = 2.0 * half_gap > min_contrast * np.broadcast_to(noise, values.shape)

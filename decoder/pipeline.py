@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import re
+from dataclasses import dataclass
 from typing import Iterable, Iterator
 
 import cv2
@@ -17,7 +18,7 @@ import numpy as np
 
 from rollsim.protocol import PhyFormat, max_run_length
 
-from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
+from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span, envelopes, smooth_profile
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
 from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.profile import RowProfile, row_profile
@@ -280,25 +281,71 @@ def decode_frame(
     FrameError
         The array is not a frame (see :func:`decoder.io.as_frame_array`).
     """
+    options = {"include_failed": include_failed, "include_truncated": include_truncated, "min_contrast": min_contrast}
+    decoded: list[DecodedPhySdu] = []
+    for index, (_, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
+        decoded.extend(decode_profile(profile, phy, pitch, frame_index=frame_index, region=index, **options))
+    return decoded
+
+
+def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int):
+    """Yield ``(frame columns, row profile, nominal rows per chip or None)`` per LED region."""
     frame = as_frame_array(image)
     pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz and row_time_s else None
     blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
-    regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions)
-    decoded: list[DecodedPhySdu] = []
-    for index, region in enumerate(regions):
-        decoded.extend(
-            decode_profile(
-                row_profile(blocks, region),
-                phy,
-                pitch,
-                frame_index=frame_index,
-                region=index,
-                include_failed=include_failed,
-                include_truncated=include_truncated,
-                min_contrast=min_contrast,
-            )
-        )
-    return decoded
+    for region in detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions):
+        yield blocks.block_col_span(region.block_cols), row_profile(blocks, region), pitch
+
+
+@dataclass(frozen=True)
+class RegionView:
+    """What the decoder saw in one LED region: for plots and debugging.
+
+    Attributes
+    ----------
+    rows, cols : slice
+        The region's frame rows and columns (bounding box).
+    profile : RowProfile
+    threshold : ndarray of float64 or None
+        The binarisation threshold of each profile row (the midpoint of the
+        local envelopes, DN); None when no chip pitch could be found.
+    sdus : tuple of DecodedPhySdu
+    """
+
+    rows: slice
+    cols: slice
+    profile: RowProfile
+    threshold: np.ndarray | None
+    sdus: tuple
+
+
+def inspect_frame(
+    image,
+    phy: PhyFormat,
+    clock_hz: float | None = None,
+    row_time_s: float | None = None,
+    frame_index: int = 0,
+    *,
+    block_px: int = 4,
+    max_regions: int = 8,
+) -> list[RegionView]:
+    """Decode one frame and return, per LED region, what the decoder saw.
+
+    Same parameters as :func:`decode_frame`; the PHY-SDUs are those it
+    returns (failed ones included, truncated ones not).
+    """
+    views = []
+    for index, (cols, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
+        sdus = decode_profile(profile, phy, pitch, frame_index=frame_index, region=index)
+        rows_per_chip = pitch if pitch is not None else coarse_rows_per_chip(profile)
+        threshold = None
+        if rows_per_chip is not None and rows_per_chip >= MIN_ROWS_PER_CHIP:
+            values = smooth_profile(profile.values, smoothing_rows(profile, rows_per_chip))
+            upper, lower = envelopes(values, envelope_window_rows(phy, rows_per_chip))
+            threshold = 0.5 * (upper + lower)
+        rows = slice(profile.first_row, profile.first_row + len(profile))
+        views.append(RegionView(rows, cols, profile, threshold, tuple(sdus)))
+    return views
 
 
 _TRAILING_NUMBER = re.compile(r"(\d+)\D*$")

@@ -29,6 +29,18 @@ def _add_set_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_scene_output_options(parser: argparse.ArgumentParser) -> None:
+    """SCENE, --out DIR and the options of commands that render a scene into a directory."""
+    parser.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
+    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (must be empty, or use --force)")
+    parser.add_argument("--frames", type=_positive_int, default=None, help="frame count (default: the scene's frames)")
+    parser.add_argument("--seed", type=int, default=None, help="override the scene seed")
+    parser.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    parser.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
+    parser.add_argument("--quiet", action="store_true", help="no progress")
+    _add_set_option(parser)
+
+
 def cmd_scenes(args) -> int:
     """List the bundled scenes with their one-line descriptions."""
     from rollsim.scene import bundled_scene_paths, read_yaml
@@ -184,6 +196,63 @@ def cmd_estimate_row_time(args) -> int:
     return EXIT_OK
 
 
+def cmd_calibrate(args) -> int:
+    """Fit the MMBP and Gilbert-Elliott models to an outcome trace."""
+    from rollsim.calibrate import calibrate, format_calibration, load_trace
+
+    result = calibrate(load_trace(Path(args.trace)), n_packets=args.n_packets)
+    print(format_calibration(result))
+    if args.json:
+        _write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")
+    return EXIT_OK
+
+
+def cmd_run(args) -> int:
+    """The main job: render, decode, evaluate, calibrate and report one scene."""
+    from tqdm import tqdm
+
+    from rollsim.evaluate import format_summary
+    from rollsim.run import STAGES, run_scene
+
+    scene = _load_scene_args(args)
+    n_frames = args.frames if args.frames is not None else scene.frames
+    bars: dict = {}
+
+    def on_stage(stage: str, event: str) -> None:
+        if event == "start":
+            if not args.quiet:
+                tqdm.write(f"[{STAGES.index(stage) + 1}/{len(STAGES)}] {stage}", file=sys.stderr)
+            if stage in ("render", "decode"):
+                bars[stage] = tqdm(total=n_frames, unit="frame", desc=stage, disable=args.quiet or None, leave=False)
+        elif stage in bars:
+            bars.pop(stage).close()
+
+    def on_frame(stage: str, done: int) -> None:
+        bars[stage].update(1)
+
+    def on_skipped(error: dict) -> None:
+        tqdm.write(f"rollsim: skipped frame {error['frame']}: {error['error']}", file=sys.stderr)
+
+    try:
+        summary = run_scene(scene, Path(args.out), n_frames, force=args.force, workers=args.workers or _default_workers(),
+                            on_stage=on_stage, on_frame=on_frame, on_skipped=on_skipped)
+    finally:
+        for bar in bars.values():
+            bar.close()
+    print(format_summary(summary.evaluation))
+    if summary.calibration is None:
+        print(f"calibration not possible: {summary.calibration_error}")
+    else:
+        mmbp, prediction = summary.calibration["mmbp"], summary.calibration["prediction"]
+        print(f"MMBP fit: M = {mmbp['M']}, N = {mmbp['N']}, p_e = {mmbp['p_e']:.4g} "
+              f"(95% CI {mmbp['p_e_ci95'][0]:.4g} .. {mmbp['p_e_ci95'][1]:.4g}); "
+              f"physics prediction M = {prediction['M']}, N = {prediction['N']}")
+    times = ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in summary.timings.items())
+    print(f"time: {times}")
+    print(f"report: {summary.out_dir / 'report.md'}")
+    return EXIT_OK
+
+
 def _default_workers() -> int:
     from rollsim.render.writer import default_workers
 
@@ -319,15 +388,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_describe)
 
     p = sub.add_parser("render", help="render a scene to PNG frames with ground truth")
-    p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory (must be empty, or use --force)")
-    p.add_argument("--frames", type=_positive_int, default=None, help="frame count (default: the scene's frames)")
-    p.add_argument("--seed", type=int, default=None, help="override the scene seed")
-    p.add_argument("--force", action="store_true", help="replace a non-empty output directory")
-    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    _add_set_option(p)
+    _add_scene_output_options(p)
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("run", help="the main job: render, decode, evaluate, calibrate and report a scene")
+    _add_scene_output_options(p)
+    p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("decode", help="decode the PHY-SDUs of a directory of frames into DIR/decoded.jsonl")
     p.add_argument("dir", metavar="DIR", help="a render directory (frames/*.png) or a folder of PNG frames")
@@ -352,6 +418,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
     p.add_argument("--json", metavar="FILE", help="also write the estimate as JSON")
     p.set_defaults(func=cmd_estimate_row_time)
+
+    p = sub.add_parser("calibrate", help="fit MMBP (M, N, p_e) and Gilbert-Elliott models to an outcome trace")
+    p.add_argument("trace", metavar="DIR|TRACE.csv", help="an evaluated render directory, or a CSV with a success column")
+    p.add_argument("--n-packets", type=_positive_int, default=None,
+                   help="N_p of the whole-message comparison (default: the scene's, else 50)")
+    p.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
+    p.set_defaults(func=cmd_calibrate)
 
     p = sub.add_parser("analytic", help="p0 and P(message) against r under MMBP and Gilbert-Elliott (paper Fig. 7-9)")
     p.add_argument("--M", type=_non_negative_int, default=5, help="ON slots per frame (default 5, paper Fig. 8)")

@@ -22,6 +22,7 @@ from rollsim.calibrate.compare import (
 )
 from rollsim.calibrate.ge import GeFit, fit_ge, ge_method_of_moments
 from rollsim.calibrate.mmbp import MmbpFit, clopper_pearson, fit_mmbp_aligned, fit_mmbp_cycle
+from rollsim.calibrate.replay import mmbp_goodput_bps, replay_goodput_bps
 from rollsim.calibrate.trace import Trace, load_trace
 from rollsim.errors import RollsimError
 
@@ -39,18 +40,46 @@ def _fit_mmbp(trace: Trace, scene) -> MmbpFit:
 
 
 def physics_prediction(scene) -> dict:
-    """(M, N) from the scene alone: frame period, LED rows × row time + exposure, PHY-SDU duration."""
-    from rollsim.channel.scene_channel import capture_window_from_scene, mmbp_slots_from_scene, sdu_duration_from_scene
+    """(M, N) from the scene alone: frame period, LED rows × row time + exposure, PHY-SDU duration.
 
-    slots = mmbp_slots_from_scene(scene)
+    Always from the physics, even when the scene's ``channel`` gives M and N
+    for the MMBP layer.
+    """
+    from rollsim.channel.analytic import mmbp_slots_from_physics
+    from rollsim.channel.scene_channel import capture_window_from_scene, sdu_duration_from_scene
+
+    window_s, sdu_s = capture_window_from_scene(scene), sdu_duration_from_scene(scene)
+    slots = mmbp_slots_from_physics(scene.camera.frame_period_s, window_s, sdu_s)
     return {
         "M": slots.M,
         "N": slots.N,
         "mean_whole_sdus_per_frame": slots.mean_whole_sdus_per_frame,
-        "capture_window_s": capture_window_from_scene(scene),
-        "sdu_duration_s": sdu_duration_from_scene(scene),
+        "capture_window_s": window_s,
+        "sdu_duration_s": sdu_s,
         "frame_period_s": scene.camera.frame_period_s,
     }
+
+
+def goodput_consistency(success, mmbp: MmbpFit, scene, r_values=range(1, 7), seed: int = 1) -> list[dict]:
+    """RP(r) goodput the fitted MMBP predicts (event simulator) against the trace replayed.
+
+    The paper's "within 10 % of the testbed", with the rendered trace as the
+    testbed. Rows: ``r``, ``predicted_bps``, ``replayed_bps`` (None when no
+    replay completes), ``relative_difference`` (predicted / replayed − 1).
+    """
+    from rollsim.channel.scene_channel import sdu_duration_from_scene
+
+    link = scene.link
+    sdu_s, packets = sdu_duration_from_scene(scene), _scene_packets(scene)
+    rows = []
+    for r in r_values:
+        predicted = mmbp_goodput_bps(
+            mmbp.M, mmbp.N, mmbp.p_e, r, packets, link.payload_bits, link.header_bits, sdu_s, seed=seed
+        )
+        replayed = replay_goodput_bps(success, r, packets, link.payload_bits, sdu_s)["goodput_bps"]
+        difference = predicted / replayed - 1.0 if replayed else None
+        rows.append({"r": r, "predicted_bps": predicted, "replayed_bps": replayed, "relative_difference": difference})
+    return rows
 
 
 def _run_length_comparison(success, mmbp: MmbpFit, ge: GeFit, seed: int) -> dict:
@@ -111,6 +140,7 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
         "run_lengths": _run_length_comparison(success, mmbp, ge, seed),
         "message": {"n_packets": n_packets, "curves": message_curves(success, mmbp, ge, n_packets)},
         "prediction": physics_prediction(scene) if scene is not None else None,
+        "goodput_rp": goodput_consistency(success, mmbp, scene, seed=seed) if scene is not None else None,
     }
     return result
 
@@ -130,7 +160,51 @@ __all__ = [
     "fit_ge",
     "fit_mmbp_aligned",
     "fit_mmbp_cycle",
+    "format_calibration",
     "ge_method_of_moments",
+    "goodput_consistency",
     "load_trace",
     "physics_prediction",
 ]
+
+
+def _number(value, digits: int = 4) -> str:
+    return "n/a" if value is None else f"{value:.{digits}g}"
+
+
+def format_calibration(result: dict) -> str:
+    """The fitted parameters and the model comparison as plain text."""
+    from rollsim.bench.common import format_table
+
+    m, ge, mom = result["mmbp"], result["ge"], result["ge_moments"]
+    lines = [
+        f"calibration of {result['source']}: {result['emissions']} emissions, {result['successes']} successes",
+        f"MMBP ({m['method']}): M = {m['M']}, N = {m['N']}, p_e = {_number(m['p_e'])} "
+        f"(95% CI {_number(m['p_e_ci95'][0])} .. {_number(m['p_e_ci95'][1])}), "
+        f"mean ON slots per frame {m['mean_on_per_frame']:.3f}",
+        f"Gilbert-Elliott (maximum likelihood): p = {_number(ge['p'])}, q = {_number(ge['q'])}, p_e = {_number(ge['p_e'])}",
+    ]
+    if mom is not None:
+        lines.append(f"Gilbert-Elliott (moments): p = {_number(mom['p'])}, q = {_number(mom['q'])}, p_e = {_number(mom['p_e'])}")
+    prediction = result.get("prediction")
+    if prediction is not None:
+        lines.append(
+            f"physics prediction: M = {prediction['M']}, N = {prediction['N']} "
+            f"({prediction['mean_whole_sdus_per_frame']:.3f} whole PHY-SDUs per frame)"
+        )
+    criteria = result["criteria"]
+    rows = [(name, _number(fit["loglik"], 6), _number(criteria[name]["aic"], 6), _number(criteria[name]["bic"], 6))
+            for name, fit in (("mmbp", m), ("ge", ge))]
+    lines += ["", format_table(rows, ("model", "log L", "AIC", "BIC")),
+              f"selected by AIC: {result['selected_by_aic']}, by BIC: {result['selected_by_bic']}", ""]
+    curves = result["message"]["curves"]
+    rows = [(c["r"], c["strategy"], _number(c["mmbp"]), _number(c["ge"]), _number(c["empirical"])) for c in curves]
+    lines += [f"P(whole message of {result['message']['n_packets']} packets in one round)",
+              format_table(rows, ("r", "strategy", "MMBP", "GE", "empirical"))]
+    goodput = result.get("goodput_rp")
+    if goodput:
+        rows = [(g["r"], _number(g["predicted_bps"], 5), _number(g["replayed_bps"], 5),
+                 "n/a" if g["relative_difference"] is None else f"{100 * g['relative_difference']:+.1f} %") for g in goodput]
+        lines += ["", "RP goodput (bit/s): fitted MMBP (event simulator) against the trace replayed",
+                  format_table(rows, ("r", "MMBP", "replayed", "difference"))]
+    return "\n".join(lines)

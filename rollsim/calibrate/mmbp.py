@@ -20,8 +20,9 @@ Two ways to place emissions on the cycle:
     is placed within its frame period, [0, T_f), so the camera's frame clock,
     not a slot count, sets the phase. This is the per-frame alignment that a
     non-integer T_f / T_p needs. The ON set is the shortest arc of start
-    offsets covering every success; its length over T_p is the fractional
-    mean number of whole PHY-SDUs per frame, and M = round of it,
+    offsets covering every success. The emissions in it, per frame, are the
+    fractional mean number of whole PHY-SDUs per frame (a capture window W
+    admits starts over W − T_p, so about W / T_p − 1); M = round of it,
     C = round(T_f / T_p), N = C − M.
 """
 
@@ -195,10 +196,10 @@ def fit_mmbp_aligned(success, start_s, frame_starts_s, frame_period_s: float, sd
     on = ((index - first) % bins) < length
     trials = int(on.sum())
     failures = trials - int(success.sum())
-    # Starts spread uniformly over the arc: its length over T_p, plus the
-    # one start that each arc end admits on average, is the mean count.
-    arc_s = (length - 1) * frame_period_s / bins
-    mean_on = arc_s / sdu_duration_s + 1.0 if length else 0.0
+    # The mean count is counted, not inferred from the arc's length: with a
+    # rational T_f / T_p the starts visit only a few offsets, and the arc
+    # between the extreme ones falls short of the true window.
+    mean_on = trials / frames.size
     cycle = max(1, int(round(frame_period_s / sdu_duration_s)))
     M = min(cycle, int(round(mean_on)))
     return _fit(M, cycle - M, failures, trials, first * frame_period_s / bins, mean_on, "aligned")

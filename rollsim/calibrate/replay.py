@@ -51,7 +51,13 @@ def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_d
 
 def mmbp_goodput_bps(M: int, N: int, p_e: float, r: int, n_packets: int, payload_bits: int, header_bits: int,
                      sdu_duration_s: float, runs: int = 2000, seed: int = 1) -> float:
-    """Mean goodput of RP(r) that the ``mmbp`` event simulator predicts."""
+    """Mean goodput of RP(r) that the ``mmbp`` event simulator predicts.
+
+    A channel with no ON slot, or p_e = 1, never delivers: 0 without
+    simulating runs that could only hit the emission cap.
+    """
+    if M == 0 or p_e >= 1.0:
+        return 0.0
     result = simulate_broadcast(
         MmbpChannel(M, N, p_e, sdu_duration_s), Schedule("rp", n_packets, r),
         header_bits=header_bits, payload_bits=payload_bits, runs=runs, seed=seed, workers=1,

@@ -111,12 +111,21 @@ def render_to_dir(
     workers = default_workers() if workers is None else max(1, int(workers))
     RenderPipeline(scene)  # fail on an impossible scene before touching disk
     with atomic_output_dir(Path(out_dir), force) as partial:
-        frames_dir = partial / "frames"
-        frames_dir.mkdir()
-        (partial / "scene.resolved.yaml").write_text(scene_to_yaml(scene), encoding="utf-8")
-        with open(partial / "truth.jsonl", "w", encoding="utf-8") as truth_file:
-            for written, truth in enumerate(_written_frames(scene, n_frames, workers, frames_dir), start=1):
-                truth_file.write(json.dumps(truth, separators=(",", ":")) + "\n")
-                if progress is not None:
-                    progress(written)
+        render_into(scene, partial, n_frames, workers, progress)
     return RenderSummary(Path(out_dir), n_frames, workers)
+
+
+def render_into(scene, directory: Path, n_frames: int, workers: int, progress: Optional[Callable[[int], None]] = None) -> None:
+    """Write the frames, truth and resolved scene into an existing, empty ``directory``.
+
+    The building block of :func:`render_to_dir`, for callers (``rollsim
+    run``) that own the atomic output directory themselves.
+    """
+    frames_dir = Path(directory) / "frames"
+    frames_dir.mkdir()
+    (Path(directory) / "scene.resolved.yaml").write_text(scene_to_yaml(scene), encoding="utf-8")
+    with open(Path(directory) / "truth.jsonl", "w", encoding="utf-8") as truth_file:
+        for written, truth in enumerate(_written_frames(scene, n_frames, workers, frames_dir), start=1):
+            truth_file.write(json.dumps(truth, separators=(",", ":")) + "\n")
+            if progress is not None:
+                progress(written)

@@ -49,17 +49,22 @@ def _construct_mapping(loader, node, deep=False):
 
 _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 
-# PyYAML follows YAML 1.1, where "1e-3" (no dot) is a string. Scenes and
-# --set values use exponents freely, so floats follow YAML 1.2 here.
+# PyYAML follows YAML 1.1, where "1e-3" (no dot) is a string and "off", "on",
+# "yes" and "no" are booleans. Scenes and --set values use exponents freely,
+# and `link.pattern: off` names a pattern, so floats and booleans follow YAML
+# 1.2 here: only true and false are booleans.
 _YAML12_FLOAT = re.compile(
     r"^(?=[-+]?\.?[0-9])[-+]?(?:[0-9][0-9_]*)?(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)?$"
     r"|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$"
 )
+_YAML12_BOOL = re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$")
+_REPLACED_TAGS = ("tag:yaml.org,2002:float", "tag:yaml.org,2002:bool")
 _UniqueKeyLoader.yaml_implicit_resolvers = {
-    key: [(tag, regexp) for tag, regexp in resolvers if tag != "tag:yaml.org,2002:float"]
+    key: [(tag, regexp) for tag, regexp in resolvers if tag not in _REPLACED_TAGS]
     for key, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
 _UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT, list("-+0123456789."))
+_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:bool", _YAML12_BOOL, list("tTfF"))
 
 
 def _load_yaml_text(text: str):

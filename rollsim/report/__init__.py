@@ -1,0 +1,187 @@
+"""The report of a ``rollsim run``: ``report.md`` and its PNG plots.
+
+:func:`write_report` reads what the earlier stages left in the run
+directory (frames, truth, decoded PHY-SDUs, outcomes) and the calibration,
+draws the plots (:mod:`rollsim.report.plots`) into ``plots/`` and writes
+``report.md`` beside them.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from rollsim.report.plots import (
+    plot_goodput,
+    plot_message_curves,
+    plot_outcome_timeline,
+    plot_row_profile,
+    plot_run_lengths,
+    plot_sample_frame,
+)
+
+PLOTS_DIR = "plots"
+# Frames searched for the sample frame (the one with the most decodes).
+SAMPLE_SEARCH_FRAMES = 30
+
+
+def read_outcomes(path: Path) -> list[dict]:
+    """Rows of ``outcomes.csv`` with their numbers and flags parsed."""
+    with open(path, newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    for row in rows:
+        row["start_s"], row["end_s"] = float(row["start_s"]), float(row["end_s"])
+        row["tx"], row["frame"] = int(row["tx"]), int(row["frame"])
+    return rows
+
+
+def sample_frame_index(decoded: list[dict], n_frames: int) -> int:
+    """The frame, among the first few, with the most PHY-SDUs whose check passed."""
+    counts = [0] * max(1, min(n_frames, SAMPLE_SEARCH_FRAMES))
+    for record in decoded:
+        if record["frame"] < len(counts) and record["check_ok"]:
+            counts[record["frame"]] += 1
+    return max(range(len(counts)), key=lambda k: (counts[k], -k))
+
+
+def _scene_lines(scene) -> list[str]:
+    cam, led, link, env = scene.camera, scene.led, scene.link, scene.environment
+    effects = ", ".join(scene.effects.enabled()) or "none"
+    return [
+        f"- camera: {cam.width_px} × {cam.height_px} at {cam.frame_rate_hz:g} Hz, row time {cam.row_time_s * 1e6:.3f} µs, "
+        f"exposure {cam.exposure_us:g} µs, ISO {cam.iso:g}, output {cam.output}",
+        f"- LED: {led.shape} of {led.size_mm:g} mm, {led.luminous_intensity_cd:g} cd, at {link.distance_cm:g} cm; "
+        f"ambient {env.ambient_lux:g} lx",
+        f"- link: {link.clock_hz:g} Hz chips, {link.line_code}, H = {link.header_bits}, P = {link.payload_bits}, "
+        f"{link.check}, G = {link.message_bytes} bytes, {link.strategy.upper()} r = {link.repeats}, pattern {link.pattern}",
+        f"- effects: {effects}; seed {scene.seed}",
+    ]
+
+
+def _rate(value) -> str:
+    return "n/a" if value is None else f"{100 * value:.3f} %"
+
+
+def _evaluation_lines(summary: dict) -> list[str]:
+    lines = ["| outcome | PHY-SDUs |", "|---|---|"]
+    lines += [f"| {name} | {count} |" for name, count in summary["counts"].items()]
+    lines += [
+        f"| false decodes | {summary['false_decodes']} |",
+        "",
+        f"Fully visible: {summary['fully_visible']} of {summary['emissions']} emissions over {summary['frames']} frames "
+        f"({summary.get('frames_unreadable', 0)} unreadable). PHY-SDU error rate among the fully visible: "
+        f"{_rate(summary['error_rate'])}; missed: {_rate(summary['missed_rate'])}; undetected errors among the passed: "
+        f"{_rate(summary['undetected_error_rate'])}; false decodes per 1000 frames: "
+        f"{summary['false_decodes_per_1000_frames']:.2f}.",
+    ]
+    return lines
+
+
+def _number(value, digits: int = 4) -> str:
+    return "n/a" if value is None else f"{value:.{digits}g}"
+
+
+def _calibration_lines(calibration: dict) -> list[str]:
+    m, ge, prediction = calibration["mmbp"], calibration["ge"], calibration.get("prediction")
+    criteria = calibration["criteria"]
+    lines = [
+        "| model | parameters | log L | AIC | BIC |",
+        "|---|---|---|---|---|",
+        f"| MMBP ({m['method']}) | M = {m['M']}, N = {m['N']}, p_e = {_number(m['p_e'])} "
+        f"(95 % CI {_number(m['p_e_ci95'][0])} – {_number(m['p_e_ci95'][1])}) | {_number(m['loglik'], 6)} | "
+        f"{_number(criteria['mmbp']['aic'], 6)} | {_number(criteria['mmbp']['bic'], 6)} |",
+        f"| Gilbert-Elliott (ML) | p = {_number(ge['p'])}, q = {_number(ge['q'])}, p_e = {_number(ge['p_e'])} | "
+        f"{_number(ge['loglik'], 6)} | {_number(criteria['ge']['aic'], 6)} | {_number(criteria['ge']['bic'], 6)} |",
+        "",
+        f"Selected by AIC: **{calibration['selected_by_aic']}**, by BIC: **{calibration['selected_by_bic']}**. "
+        f"Mean fully received slots per frame: {m['mean_on_per_frame']:.3f}.",
+    ]
+    if prediction is not None:
+        agree = "agrees" if (prediction["M"], prediction["N"]) == (m["M"], m["N"]) else "**disagrees**"
+        lines.append(
+            f"Physics prediction from the scene alone: M = {prediction['M']}, N = {prediction['N']} "
+            f"({prediction['mean_whole_sdus_per_frame']:.3f} whole PHY-SDUs per frame: capture window "
+            f"{prediction['capture_window_s'] * 1e3:.3f} ms, PHY-SDU {prediction['sdu_duration_s'] * 1e3:.3f} ms, "
+            f"frame period {prediction['frame_period_s'] * 1e3:.3f} ms); the fit {agree}."
+        )
+    goodput = calibration.get("goodput_rp")
+    if goodput:
+        lines += ["", "RP goodput, the fitted MMBP's prediction (event simulator) against the pixel-level trace replayed:", "",
+                  "| r | MMBP (bit/s) | replayed (bit/s) | difference |", "|---|---|---|---|"]
+        lines += [
+            f"| {g['r']} | {_number(g['predicted_bps'], 5)} | {_number(g['replayed_bps'], 5)} | "
+            + ("n/a" if g["relative_difference"] is None else f"{100 * g['relative_difference']:+.1f} %") + " |"
+            for g in goodput
+        ]
+    return lines
+
+
+def _timing_lines(timings: dict, n_frames: int) -> list[str]:
+    lines = ["| stage | seconds | ms per frame |", "|---|---|---|"]
+    lines += [f"| {stage} | {seconds:.2f} | {1e3 * seconds / max(1, n_frames):.1f} |" for stage, seconds in timings.items()]
+    return lines
+
+
+def write_report(run_dir: Path, scene, evaluation_summary: dict, calibration: dict | None, timings: dict,
+                 calibration_error: str | None = None) -> Path:
+    """Draw the plots and write ``report.md``; returns its path.
+
+    Parameters
+    ----------
+    run_dir : Path
+        A run directory holding frames, ``truth.jsonl``, ``decoded.jsonl``
+        and ``outcomes.csv``.
+    scene : Scene
+    evaluation_summary : dict
+        :attr:`rollsim.evaluate.Evaluation.summary`.
+    calibration : dict or None
+        :func:`rollsim.calibrate.calibrate`'s result; None when the trace
+        could not be fitted (``calibration_error`` says why).
+    timings : dict
+        Seconds per stage, in order.
+    calibration_error : str, optional
+    """
+    from decoder import inspect_frame, read_frame
+
+    from rollsim.decode import frame_files
+    from rollsim.evaluate import read_jsonl
+    from rollsim.transmitter import phy_from_scene
+
+    run_dir = Path(run_dir)
+    plots = run_dir / PLOTS_DIR
+    plots.mkdir(exist_ok=True)
+    truth = read_jsonl(run_dir / "truth.jsonl")
+    decoded = read_jsonl(run_dir / "decoded.jsonl")
+    frame = sample_frame_index(decoded, len(truth))
+    image = read_frame(frame_files(run_dir)[frame])
+    views = inspect_frame(image, phy_from_scene(scene), scene.link.clock_hz, scene.camera.row_time_s, frame)
+    figures = [("A sample frame", plot_sample_frame(image, views, frame, plots / "sample_frame.png"))]
+    if views:
+        figures.append(("Its row profile and threshold", plot_row_profile(views[0], frame, plots / "row_profile.png")))
+    outcomes = read_outcomes(run_dir / "outcomes.csv")
+    if outcomes:
+        figures.append(("Outcome timeline", plot_outcome_timeline(outcomes, truth, plots / "outcome_timeline.png")))
+    if calibration is not None:
+        figures += [
+            ("Run lengths", plot_run_lengths(calibration, plots / "run_lengths.png")),
+            ("P(message): fitted models against the trace", plot_message_curves(calibration, plots / "message_curves.png")),
+        ]
+        if calibration.get("goodput_rp"):
+            figures.append(("RP goodput: predicted against replayed", plot_goodput(calibration, plots / "goodput_rp.png")))
+    n_frames = len(truth)
+    lines = [f"# rollsim run: {scene.name}", ""]
+    if scene.description:
+        lines += [scene.description, ""]
+    lines += _scene_lines(scene) + ["", f"{n_frames} frames: render → decode → evaluate → calibrate → report.", ""]
+    lines += ["## Time per stage", ""] + _timing_lines(timings, n_frames) + [""]
+    lines += ["## Evaluation against the ground truth", ""] + _evaluation_lines(evaluation_summary) + [""]
+    if calibration is not None:
+        lines += ["## Calibration", ""] + _calibration_lines(calibration) + [""]
+    else:
+        lines += ["## Calibration", "", f"Not possible: {calibration_error}", ""]
+    lines += ["## Plots", ""]
+    for title, path in figures:
+        lines += [f"### {title}", "", f"![{title}]({PLOTS_DIR}/{path.name})", ""]
+    report = run_dir / "report.md"
+    report.write_text("\n".join(lines), encoding="utf-8")
+    return report

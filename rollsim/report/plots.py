@@ -1,0 +1,180 @@
+"""The run report's plots, each a small function writing one PNG.
+
+Figures are built on :class:`matplotlib.figure.Figure` directly (no pyplot
+state), and saved without a timestamp or software version so that the same
+run gives the same files.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+OUTCOME_COLOURS = {
+    "ok": "#2ca02c",
+    "undetected_error": "#9467bd",
+    "corrupted": "#d62728",
+    "missed": "#ff7f0e",
+    "not_visible": "#bbbbbb",
+}
+MODEL_COLOURS = {"empirical": "#333333", "mmbp": "#1f77b4", "ge": "#ff7f0e"}
+
+
+def _figure(width_in: float, height_in: float, rows: int = 1, cols: int = 1):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False)
+    return fig, axes
+
+
+def _save(fig, path: Path) -> Path:
+    fig.savefig(path, dpi=100, metadata={"Software": None})
+    return path
+
+
+def plot_sample_frame(image: np.ndarray, views, frame: int, path: Path) -> Path:
+    """The frame with each LED region (dashed) and each decoded PHY-SDU outlined.
+
+    Parameters
+    ----------
+    image : ndarray
+        The frame, gray or RGB.
+    views : list of decoder.RegionView
+        What the decoder saw (:func:`decoder.inspect_frame`).
+    frame : int
+    path : Path
+    """
+    from matplotlib.patches import Rectangle
+
+    height, width = image.shape[:2]
+    fig, axes = _figure(8.0, 8.0 * height / width + 0.6)
+    ax = axes[0, 0]
+    ax.imshow(image, cmap="gray" if image.ndim == 2 else None, interpolation="nearest")
+    for view in views:
+        cols = view.cols
+        ax.add_patch(Rectangle((cols.start, view.rows.start), cols.stop - cols.start, view.rows.stop - view.rows.start,
+                               fill=False, edgecolor="yellow", linestyle="--", linewidth=1.0))
+        for sdu in view.sdus:
+            colour = OUTCOME_COLOURS["ok"] if sdu.check_ok else OUTCOME_COLOURS["corrupted"]
+            ax.add_patch(Rectangle((cols.start + 4, sdu.first_row_f), cols.stop - cols.start - 8, sdu.last_row_f - sdu.first_row_f,
+                                   fill=False, edgecolor=colour, linewidth=1.6))
+            label = f"seq {sdu.sequence}" if sdu.check_ok else sdu.status
+            ax.text(cols.start + 12, sdu.first_row_f + 30, label, color=colour, fontsize=9, weight="bold")
+    ax.set_title(f"frame {frame}: LED regions (dashed) and decoded PHY-SDUs (green ok, red failed)", fontsize=10)
+    ax.set_xlabel("column (px)")
+    ax.set_ylabel("row")
+    return _save(fig, path)
+
+
+def plot_row_profile(view, frame: int, path: Path) -> Path:
+    """A region's row profile, the binarisation threshold and the decoded spans."""
+    profile = view.profile
+    rows = profile.first_row + np.arange(len(profile))
+    fig, axes = _figure(10.0, 3.6)
+    ax = axes[0, 0]
+    ax.plot(rows, profile.values, color="#333333", linewidth=0.8, label="row mean over the region")
+    if view.threshold is not None:
+        ax.plot(rows, view.threshold, color="#d62728", linewidth=1.0, label="threshold (envelope midpoint)")
+    for sdu in view.sdus:
+        colour = OUTCOME_COLOURS["ok"] if sdu.check_ok else OUTCOME_COLOURS["corrupted"]
+        ax.axvspan(sdu.first_row_f, sdu.last_row_f, color=colour, alpha=0.12)
+    ax.set_xlabel("row")
+    ax.set_ylabel("level (DN)")
+    ax.set_title(f"frame {frame}: row profile; shaded: decoded PHY-SDUs", fontsize=10)
+    ax.legend(loc="lower right", fontsize=8)
+    return _save(fig, path)
+
+
+def capture_windows(truth: list[dict]) -> np.ndarray:
+    """Per frame, [start, end] of the span its LED rows integrate (s); rows without LED are skipped."""
+    spans = [
+        (t["start_s"] + t["led_rows"][0] * t["row_time_s"], t["start_s"] + t["led_rows"][1] * t["row_time_s"] + t["exposure_s"])
+        for t in truth
+        if t.get("led_rows")
+    ]
+    return np.array(spans, dtype=np.float64).reshape(-1, 2)
+
+
+def plot_outcome_timeline(outcomes: list[dict], truth: list[dict], path: Path, zoom_s: float = 0.25) -> Path:
+    """Each emission's outcome against time: the whole run, and its start with the capture windows."""
+    names = list(OUTCOME_COLOURS)
+    start = np.array([o["start_s"] for o in outcomes])
+    end = np.array([o["end_s"] for o in outcomes])
+    kind = np.array([names.index(o["outcome"]) for o in outcomes], dtype=np.int64)
+    fig, axes = _figure(10.0, 5.0, rows=2)
+    whole, zoom = axes[0, 0], axes[1, 0]
+    for index, name in enumerate(names):
+        chosen = kind == index
+        whole.scatter(start[chosen], np.full(chosen.sum(), index), s=6, color=OUTCOME_COLOURS[name], label=name)
+    whole.set_yticks(range(len(names)), names, fontsize=8)
+    whole.set_xlabel("emission start (s)")
+    whole.set_title("outcome of every emitted PHY-SDU", fontsize=10)
+    t0 = start.min() if start.size else 0.0
+    for a, b in capture_windows(truth):
+        if a < t0 + zoom_s:
+            zoom.axvspan(a, b, ymin=0.7, ymax=0.95, color="#1f77b4", alpha=0.5)
+    shown = start < t0 + zoom_s
+    zoom.barh(np.zeros(shown.sum()), end[shown] - start[shown], left=start[shown], height=0.8,
+              color=[OUTCOME_COLOURS[names[k]] for k in kind[shown]], edgecolor="white")
+    zoom.set_yticks([0.0, 1.3], ["PHY-SDUs", "capture"], fontsize=8)
+    zoom.set_ylim(-0.6, 1.9)
+    zoom.set_xlim(t0, t0 + zoom_s)
+    zoom.set_xlabel("time (s)")
+    zoom.set_title(f"first {zoom_s:g} s: PHY-SDUs by outcome, and each frame's capture window (LED rows + exposure)", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_run_lengths(calibration: dict, path: Path) -> Path:
+    """Success-run and loss-run length distributions: empirical against each fitted model."""
+    runs = calibration["run_lengths"]
+    fig, axes = _figure(10.0, 3.6, cols=2)
+    for ax, kind in zip(axes[0], ("success", "loss")):
+        models = runs[kind]
+        bins = len(models["empirical"])
+        x = np.arange(1, bins + 1)
+        for offset, name in zip((-0.27, 0.0, 0.27), ("empirical", "mmbp", "ge")):
+            ax.bar(x + offset, models[name], width=0.27, color=MODEL_COLOURS[name], label=name.upper() if name != "empirical" else name)
+        ax.set_xticks(x, [str(v) for v in x[:-1]] + [f"≥{bins}"], fontsize=8)
+        ax.set_xlabel(f"{kind} run length (emissions)")
+        ax.set_ylabel("fraction of runs")
+        ax.set_title(f"{kind} runs", fontsize=10)
+        ax.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def plot_message_curves(calibration: dict, path: Path) -> Path:
+    """P(whole message in one round) against r: fitted models against the trace."""
+    curves = calibration["message"]["curves"]
+    fig, axes = _figure(10.0, 3.6, cols=2)
+    for ax, strategy in zip(axes[0], ("rp", "rs")):
+        rows = [c for c in curves if c["strategy"] == strategy]
+        r = [c["r"] for c in rows]
+        ax.plot(r, [c["mmbp"] for c in rows], "-o", color=MODEL_COLOURS["mmbp"], label="MMBP fit", markersize=4)
+        ax.plot(r, [c["ge"] for c in rows], "-s", color=MODEL_COLOURS["ge"], label="GE fit", markersize=4)
+        empirical = [(c["r"], c["empirical"]) for c in rows if c["empirical"] is not None]
+        if empirical:
+            ax.plot(*zip(*empirical), "x", color=MODEL_COLOURS["empirical"], label="trace", markersize=8)
+        ax.set_ylim(-0.03, 1.03)
+        ax.set_xlabel("r (copies)")
+        ax.set_ylabel("P(message)")
+        ax.set_title(f"{strategy.upper()}, N_p = {calibration['message']['n_packets']}", fontsize=10)
+        ax.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def plot_goodput(calibration: dict, path: Path) -> Path:
+    """RP goodput for r = 1 … 6: the fitted MMBP's prediction against the replayed trace."""
+    rows = calibration.get("goodput_rp") or []
+    fig, axes = _figure(7.0, 3.6)
+    ax = axes[0, 0]
+    r = np.array([g["r"] for g in rows])
+    ax.bar(r - 0.2, [g["predicted_bps"] for g in rows], width=0.4, color=MODEL_COLOURS["mmbp"], label="fitted MMBP (event simulator)")
+    ax.bar(r + 0.2, [g["replayed_bps"] or 0.0 for g in rows], width=0.4, color=MODEL_COLOURS["empirical"], label="pixel-level trace replayed")
+    ax.set_xticks(r)
+    ax.set_xlabel("r (RP copies)")
+    ax.set_ylabel("goodput (bit/s)")
+    ax.set_title("RP goodput: predicted against measured", fontsize=10)
+    ax.legend(fontsize=8)
+    return _save(fig, path)

@@ -1,0 +1,145 @@
+"""``rollsim run``: the whole loop on one scene.
+
+render → decode → evaluate → calibrate → report, into one output directory
+that appears only when every stage is done (:mod:`rollsim.outdir`):
+
+- ``frames/``, ``truth.jsonl``, ``scene.resolved.yaml`` (render)
+- ``decoded.jsonl``, ``decode.json`` (decode)
+- ``outcomes.csv``, ``evaluation.json`` (evaluate)
+- ``calibration.json`` (calibrate)
+- ``report.md`` and ``plots/*.png`` (report)
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Optional
+
+from rollsim.errors import RollsimError
+from rollsim.outdir import atomic_output_dir
+
+STAGES = ("render", "decode", "evaluate", "calibrate", "report")
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What a run produced.
+
+    Attributes
+    ----------
+    out_dir : Path
+    frames : int
+    evaluation : dict
+        The evaluation summary.
+    calibration : dict or None
+        The calibration result; None when the trace could not be fitted.
+    timings : dict
+        Seconds per stage.
+    calibration_error : str or None
+        Why there is no calibration.
+    """
+
+    out_dir: Path
+    frames: int
+    evaluation: dict
+    calibration: Optional[dict]
+    timings: dict
+    calibration_error: Optional[str] = None
+
+
+class _StageClock:
+    """Times consecutive stages and reports each start and end."""
+
+    def __init__(self, on_stage: Optional[Callable[[str, str], None]]):
+        self.timings: dict[str, float] = {}
+        self._on_stage = on_stage
+
+    def run(self, stage: str, work: Callable):
+        if self._on_stage is not None:
+            self._on_stage(stage, "start")
+        start = time.perf_counter()
+        result = work()
+        self.timings[stage] = time.perf_counter() - start
+        if self._on_stage is not None:
+            self._on_stage(stage, "done")
+        return result
+
+
+def run_scene(
+    scene,
+    out_dir: Path,
+    n_frames: int,
+    *,
+    force: bool = False,
+    workers: int = 1,
+    on_stage: Optional[Callable[[str, str], None]] = None,
+    on_frame: Optional[Callable[[str, int], None]] = None,
+    on_skipped: Optional[Callable[[dict], None]] = None,
+) -> RunSummary:
+    """Render, decode, evaluate, calibrate and report one scene.
+
+    Parameters
+    ----------
+    scene : Scene
+    out_dir : Path
+        Must not exist or be empty, unless ``force``.
+    n_frames : int
+    force : bool
+        Replace a non-empty ``out_dir``.
+    workers : int
+        Processes for rendering and decoding.
+    on_stage : callable, optional
+        ``on_stage(stage, "start" | "done")``.
+    on_frame : callable, optional
+        ``on_frame(stage, frames_done)`` during render and decode.
+    on_skipped : callable, optional
+        Called with the record of each frame the decoder could not read.
+
+    A trace the models cannot be fitted to (nothing decoded, a dark scene)
+    still gives a run: everything but ``calibration.json``, with the reason
+    in the report and in :attr:`RunSummary.calibration_error`.
+
+    Raises
+    ------
+    RollsimError
+        An impossible scene or an unusable output directory; ``out_dir`` is
+        then left as it was.
+    """
+    from rollsim.calibrate import calibrate, load_trace
+    from rollsim.decode import decode_directory, settings_from_scene
+    from rollsim.evaluate import evaluate_directory
+    from rollsim.outdir import write_text_atomic
+    from rollsim.render import RenderPipeline
+    from rollsim.render.writer import render_into
+    from rollsim.report import write_report
+
+    if n_frames < 1:
+        raise ValueError(f"n_frames must be >= 1, got {n_frames}")
+    RenderPipeline(scene)  # fail on an impossible scene before touching disk
+    clock = _StageClock(on_stage)
+
+    def progress(stage):
+        return None if on_frame is None else (lambda done: on_frame(stage, done))
+
+    with atomic_output_dir(Path(out_dir), force) as partial:
+        clock.run("render", lambda: render_into(scene, partial, n_frames, workers, progress("render")))
+        settings = settings_from_scene(scene)
+        clock.run("decode", lambda: decode_directory(partial, settings, workers=workers, on_error=on_skipped,
+                                                     progress=progress("decode")))
+        evaluation = clock.run("evaluate", lambda: evaluate_directory(partial))
+        try:
+            calibration = clock.run("calibrate", lambda: calibrate(load_trace(partial)))
+        except RollsimError as exc:
+            # Nothing decoded (a dark or undecodable scene) is a finding, not
+            # bad input: the run still reports what the decoder saw.
+            calibration, reason = None, str(exc).replace(str(partial), str(out_dir))
+        else:
+            reason = None
+            # The trace's source is the temporary directory; name the run's.
+            calibration["source"] = str(out_dir)
+            write_text_atomic(partial / "calibration.json", json.dumps(calibration, indent=2, allow_nan=False) + "\n")
+        clock.run("report", lambda: write_report(partial, scene, evaluation.summary, calibration, clock.timings, reason))
+    return RunSummary(Path(out_dir), n_frames, evaluation.summary, calibration, clock.timings, reason)

@@ -1,0 +1,121 @@
+"""The per-frame aligned MMBP fit against known answers, and calibration of rendered runs."""
+
+import json
+
+import numpy as np
+import pytest
+
+from rollsim.calibrate import calibrate, fit_mmbp_aligned, load_trace
+from rollsim.cli import main
+from rollsim.errors import RollsimError
+
+
+def windowed_trace(frame_period_s, window_s, sdu_s, offset_s, n_frames, p_e=0.0, seed=0):
+    """Emissions back to back; one succeeds when it lies wholly inside its
+    frame's capture window [t_k + offset, t_k + offset + W] (and with 1 - p_e)."""
+    rng = np.random.default_rng(seed)
+    frames = np.arange(n_frames) * frame_period_s
+    starts = np.arange(int(n_frames * frame_period_s / sdu_s)) * sdu_s + 0.37e-3
+    k = np.searchsorted(frames, starts, side="right") - 1
+    inside = (starts - frames[k] >= offset_s) & (starts + sdu_s - frames[k] <= offset_s + window_s)
+    return inside & (rng.random(starts.size) >= p_e), starts, frames, inside
+
+
+@pytest.mark.parametrize(
+    "window_s, sdu_s, expected",
+    [(29.711e-3, 7e-3, (3, 2)), (21.878e-3, 7e-3, (2, 3)), (25e-3, 3.5e-3, (6, 4)), (8e-3, 7e-3, (0, 5))],
+)
+def test_aligned_fit_counts_whole_phy_sdus_per_frame(window_s, sdu_s, expected):
+    period = 1 / 30
+    success, starts, frames, inside = windowed_trace(period, window_s, sdu_s, 0.5e-3, 300, p_e=0.01)
+    if not success.any():
+        with pytest.raises(ValueError, match="no success"):
+            fit_mmbp_aligned(success, starts, frames, period, sdu_s)
+        return
+    fit = fit_mmbp_aligned(success, starts, frames, period, sdu_s)
+    assert (fit.M, fit.N) == expected
+    # The mean ON count per frame is counted: emissions wholly inside a window.
+    assert fit.mean_on_per_frame == pytest.approx(inside.sum() / frames.size, abs=0.02)
+    assert fit.mean_on_per_frame == pytest.approx(window_s / sdu_s - 1, abs=0.05)
+    assert fit.p_e_ci95[0] <= 0.01 <= fit.p_e_ci95[1]
+
+
+@pytest.fixture(scope="module")
+def evaluated_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cal") / "paper"
+    assert main(["run", "paper-default", "--out", str(out), "--frames", "120", "--workers", "2", "--quiet",
+                 "--set", "camera.width_px=480"]) == 0
+    return out
+
+
+def test_rendered_run_calibrates_to_the_physics(evaluated_run):
+    result = json.loads((evaluated_run / "calibration.json").read_text())
+    evaluation = json.loads((evaluated_run / "evaluation.json").read_text())["summary"]
+    mmbp, prediction = result["mmbp"], result["prediction"]
+    assert (mmbp["M"], mmbp["N"]) == (prediction["M"], prediction["N"]) == (3, 2)
+    assert mmbp["mean_on_per_frame"] == pytest.approx(prediction["mean_whole_sdus_per_frame"], abs=0.1)
+    # p_e agrees with the evaluation's PHY-SDU error rate: each lies in the other's reach.
+    low, high = mmbp["p_e_ci95"]
+    assert low <= evaluation["error_rate"] <= high
+    for row in result["goodput_rp"]:
+        assert abs(row["relative_difference"]) < 0.10, row
+
+
+def test_calibrate_cli_on_a_directory_and_a_csv(evaluated_run, tmp_path, capsys):
+    out = tmp_path / "cal.json"
+    assert main(["calibrate", str(evaluated_run), "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "MMBP (aligned): M = 3, N = 2" in text and "physics prediction: M = 3, N = 2" in text
+    result = json.loads(out.read_text())
+    assert set(result["mmbp"]) >= {"M", "N", "p_e", "p_e_ci95", "loglik"}
+    assert set(result["ge"]) >= {"p", "q", "p_e", "loglik"}
+    assert set(result["prediction"]) >= {"M", "N"}
+    # The same trace as a bare CSV: no frame times, so the cycle fit.
+    csv_only = tmp_path / "trace.csv"
+    csv_only.write_text((evaluated_run / "outcomes.csv").read_text())
+    assert main(["calibrate", str(csv_only)]) == 0
+    assert "MMBP (cycle)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [("tx,frame\n1,2\n", "needs a 'success' or 'outcome' column"), ("success\nmaybe\n", "success = 'maybe'"),
+     ("success\n", "the trace is empty"), ("success\n0\n0\n0\n", "no success")],
+)
+def test_calibrate_cli_bad_traces_are_one_line(tmp_path, capsys, content, message):
+    path = tmp_path / "t.csv"
+    path.write_text(content)
+    assert main(["calibrate", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0] and str(path) in err[0]
+
+
+def test_degenerate_rendered_trace_with_its_scene(evaluated_run):
+    """With the scene known: a trace whose every emission failed is a clear
+    error; one with a single success gives finite numbers, an MMBP with no
+    whole ON slot per frame, and a predicted goodput of exactly 0."""
+    from dataclasses import replace
+
+    trace = load_trace(evaluated_run)
+    with pytest.raises(RollsimError, match="no success"):
+        calibrate(replace(trace, success=np.zeros_like(trace.success)))
+    single = np.zeros_like(trace.success)
+    single[np.flatnonzero(trace.success)[0]] = True
+    result = calibrate(replace(trace, success=single))
+    json.dumps(result, allow_nan=False)
+    assert result["mmbp"]["M"] == 0 and result["mmbp"]["mean_on_per_frame"] < 0.1
+    assert all(g["predicted_bps"] == 0.0 for g in result["goodput_rp"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scene", ["paper-default", "paper-10cm"])
+def test_paper_scenes_300_frames_calibrate_to_the_physics(scene, tmp_path):
+    out = tmp_path / scene
+    assert main(["run", scene, "--out", str(out), "--quiet"]) == 0
+    result = json.loads((out / "calibration.json").read_text())
+    evaluation = json.loads((out / "evaluation.json").read_text())["summary"]
+    assert (result["mmbp"]["M"], result["mmbp"]["N"]) == (result["prediction"]["M"], result["prediction"]["N"])
+    low, high = result["mmbp"]["p_e_ci95"]
+    assert low <= evaluation["error_rate"] <= high
+    print(scene, [(g["r"], round(100 * g["relative_difference"], 1)) for g in result["goodput_rp"]])
+    assert all(abs(g["relative_difference"]) < 0.10 for g in result["goodput_rp"])

@@ -1,0 +1,78 @@
+"""rollsim run: render, decode, evaluate, calibrate and report, end to end."""
+
+import json
+import re
+
+import cv2
+import pytest
+
+from rollsim.cli import main
+from rollsim.run import STAGES
+
+FAST = ["--set", "camera.width_px=480", "--workers", "1"]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "paper-10cm"
+    assert main(["run", "paper-10cm", "--out", str(out), "--frames", "16", *FAST]) == 0
+    return out
+
+
+def test_run_writes_every_stage_output(run_dir):
+    for name in ("truth.jsonl", "scene.resolved.yaml", "decoded.jsonl", "decode.json", "outcomes.csv",
+                 "evaluation.json", "calibration.json", "report.md"):
+        assert (run_dir / name).is_file(), name
+    assert len(list((run_dir / "frames").glob("*.png"))) == 16
+    calibration = json.loads((run_dir / "calibration.json").read_text())
+    assert calibration["source"] == str(run_dir)
+    assert set(calibration) >= {"mmbp", "ge", "prediction", "goodput_rp", "message", "run_lengths"}
+
+
+def test_report_links_six_readable_plots(run_dir):
+    report = (run_dir / "report.md").read_text()
+    links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", report)
+    assert [link.split("/")[-1] for link in links] == [
+        "sample_frame.png", "row_profile.png", "outcome_timeline.png", "run_lengths.png",
+        "message_curves.png", "goodput_rp.png",
+    ]
+    for link in links:
+        image = cv2.imread(str(run_dir / link))
+        assert image is not None and image.shape[0] > 100 and image.shape[1] > 100
+    for heading in ("## Time per stage", "## Evaluation against the ground truth", "## Calibration"):
+        assert heading in report
+    assert "the fit agrees" in report
+
+
+def test_run_prints_progress_per_stage_and_a_summary(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", "paper-default", "--out", str(out), "--frames", "3", *FAST]) == 0
+    captured = capsys.readouterr()
+    for number, stage in enumerate(STAGES, start=1):
+        assert f"[{number}/{len(STAGES)}] {stage}" in captured.err
+    assert "MMBP fit: M =" in captured.out and str(out / "report.md") in captured.out
+
+
+def test_run_refuses_a_non_empty_directory_and_leaves_nothing_on_failure(tmp_path, capsys):
+    taken = tmp_path / "taken"
+    taken.mkdir()
+    (taken / "keep.txt").write_text("mine")
+    assert main(["run", "paper-default", "--out", str(taken), "--frames", "2", *FAST]) == 2
+    assert "not empty" in capsys.readouterr().err
+    assert [p.name for p in taken.iterdir()] == ["keep.txt"]
+    # A bad override: a one-line error, and no output directory (nor a
+    # partial one) left behind.
+    bad = tmp_path / "bad"
+    assert main(["run", "paper-default", "--out", str(bad), "--frames", "2", *FAST, "--set", "camera.exposure_us=-5"]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["taken"]
+
+
+def test_a_dark_scene_still_reports_what_the_decoder_saw(tmp_path, capsys):
+    out = tmp_path / "dark"
+    assert main(["run", "paper-default", "--out", str(out), "--frames", "3", "--quiet", *FAST,
+                 "--set", "link.pattern=off"]) == 0
+    assert "calibration not possible: " in capsys.readouterr().out
+    report = (out / "report.md").read_text()
+    assert "## Calibration\n\nNot possible: " in report and str(out) in report and ".partial-" not in report
+    assert not (out / "calibration.json").exists() and (out / "plots" / "sample_frame.png").is_file()
