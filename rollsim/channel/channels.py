@@ -43,11 +43,11 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 import numpy as np
-from scipy.special import ndtr, ndtri
 
 from rollsim.channel.validation import as_count as _as_count
 from rollsim.channel.validation import as_positive as _as_duration
 from rollsim.channel.validation import as_probability as _as_probability
+from rollsim.sensor.gaussian import truncated_normal as _truncated_normal
 
 __all__ = [
     "CAMCOMSIM_ROI_TABLE",
@@ -292,21 +292,6 @@ class TimedChannel:
         """Start one broadcast: phase and frame jitter from ``seed_sequence``."""
         emissions, frames = seed_sequence.spawn(2)
         return _TimedRun(self, np.random.default_rng(emissions), np.random.default_rng(frames))
-
-
-def _truncated_normal(uniform: np.ndarray, sigma: float, bound: float) -> np.ndarray:
-    """Normal(0, ``sigma``) truncated to ``[-bound, bound]``, one value per U[0, 1) draw.
-
-    Inverse CDF on the lower half only (``u < 1/2`` gives a negative value,
-    ``u >= 1/2`` its mirror image): the quantile of probabilities near 1
-    would round to ``inf``, those near 0 stay finite. The result is clipped
-    to ``[-bound, bound]`` against the last ulp.
-    """
-    lo = ndtr(-bound / sigma)  # P(Z < -a), may underflow to 0
-    half = np.where(uniform < 0.5, uniform, 1.0 - uniform)  # in (0, 1/2]
-    p = lo + 2.0 * half * (0.5 - lo)
-    z = np.maximum(ndtri(np.maximum(p, np.finfo(float).tiny)), -bound / sigma)
-    return np.clip(np.where(uniform < 0.5, z, -z) * sigma, -bound, bound)
 
 
 class _TimedRun:

@@ -83,14 +83,18 @@ def _disk_corner_area(x: np.ndarray, y: np.ndarray, r: float) -> np.ndarray:
 _SNAP = 1e-14
 
 
-def _disk_exact(xs: np.ndarray, ys: np.ndarray, r: float) -> np.ndarray:
-    # Inclusion-exclusion over the four corners of each pixel.
-    G = _disk_corner_area(xs[None, :], ys[:, None], r)
-    coverage = np.clip(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1], 0.0, 1.0)
+def _snap(coverage: np.ndarray, r: float) -> np.ndarray:
+    coverage = np.clip(coverage, 0.0, 1.0)
     tolerance = _SNAP * max(1.0, r * r)
     coverage[coverage < tolerance] = 0.0
     coverage[coverage > 1.0 - tolerance] = 1.0
     return coverage
+
+
+def _disk_exact(xs: np.ndarray, ys: np.ndarray, r: float) -> np.ndarray:
+    # Inclusion-exclusion over the four corners of each pixel.
+    G = _disk_corner_area(xs[None, :], ys[:, None], r)
+    return _snap(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1], r)
 
 
 def _interval_overlap(lo: np.ndarray, half: float) -> np.ndarray:
@@ -98,15 +102,30 @@ def _interval_overlap(lo: np.ndarray, half: float) -> np.ndarray:
 
 
 def _supersample(xs: np.ndarray, ys: np.ndarray, size: float, shape: str, n: int) -> np.ndarray:
+    """n × n samples per pixel. ``xs``: column edges, shape (m+1,), or one row
+    of them per pixel row, (rows, m+1); ``ys``: the top edge of each pixel row, (rows,)."""
     offsets = (np.arange(n) + 0.5) / n
-    px = (xs[:-1, None] + offsets[None, :]).ravel()
-    py = (ys[:-1, None] + offsets[None, :]).ravel()
+    xs = np.atleast_2d(xs)
+    px = (xs[:, :-1, None] + offsets).reshape(xs.shape[0], -1)[:, None, :]
+    py = (ys[:, None] + offsets)[:, :, None]
     half = 0.5 * size
     if shape == "disk":
-        inside = (px[None, :] ** 2 + py[:, None] ** 2) <= half * half
+        inside = (px**2 + py**2) <= half * half
     else:
-        inside = (np.abs(px)[None, :] <= half) & (np.abs(py)[:, None] <= half)
-    return inside.reshape(len(ys) - 1, n, len(xs) - 1, n).mean(axis=(1, 3))
+        inside = (np.abs(px) <= half) & (np.abs(py) <= half)
+    return inside.reshape(len(ys), n, xs.shape[1] - 1, n).mean(axis=(1, 3))
+
+
+_SAMPLES_PER_SIDE = {"supersample1": 1, "supersample4": 2, "supersample16": 4}
+
+
+def _check_arguments(size_px: float, shape: str, edge: str) -> None:
+    if not size_px > 0:
+        raise ValueError(f"size_px must be > 0, got {size_px}")
+    if shape not in ("disk", "square"):
+        raise ValueError(f"unknown footprint shape {shape!r}")
+    if edge not in EDGE_METHODS:
+        raise ValueError(f"unknown edge method {edge!r}; expected one of {list(EDGE_METHODS)}")
 
 
 def footprint(centre_px: tuple[float, float], size_px: float, shape: str, frame_shape: tuple[int, int], edge: str = "exact") -> Footprint:
@@ -125,12 +144,7 @@ def footprint(centre_px: tuple[float, float], size_px: float, shape: str, frame_
     edge : {"exact", "supersample1", "supersample4", "supersample16"}
         Exact area, or 1, 4 (2×2) or 16 (4×4) samples per pixel.
     """
-    if not size_px > 0:
-        raise ValueError(f"size_px must be > 0, got {size_px}")
-    if shape not in ("disk", "square"):
-        raise ValueError(f"unknown footprint shape {shape!r}")
-    if edge not in EDGE_METHODS:
-        raise ValueError(f"unknown edge method {edge!r}; expected one of {list(EDGE_METHODS)}")
+    _check_arguments(size_px, shape, edge)
     height, width = frame_shape
     cx, cy = centre_px
     rows, cols = _bounding_box(cy, size_px, height), _bounding_box(cx, size_px, width)
@@ -140,9 +154,91 @@ def footprint(centre_px: tuple[float, float], size_px: float, shape: str, frame_
     if len(xs) < 2 or len(ys) < 2:
         return Footprint(rows, cols, np.zeros((len(ys) - 1 if len(ys) else 0, len(xs) - 1 if len(xs) else 0)))
     if edge != "exact":
-        n = {"supersample1": 1, "supersample4": 2, "supersample16": 4}[edge]
-        return Footprint(rows, cols, _supersample(xs, ys, size_px, shape, n))
+        return Footprint(rows, cols, _supersample(xs, ys[:-1], size_px, shape, _SAMPLES_PER_SIDE[edge]))
     if shape == "disk":
         return Footprint(rows, cols, _disk_exact(xs, ys, 0.5 * size_px))
     half = 0.5 * size_px
     return Footprint(rows, cols, _interval_overlap(ys[:-1], half)[:, None] * _interval_overlap(xs[:-1], half)[None, :])
+
+
+# ------------------------------------------------- a centre for every row
+
+
+def _ragged_columns(starts: np.ndarray, stops: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(row, column) of every column in [starts[i], stops[i]) of each row i."""
+    lengths = np.maximum(stops - starts, 0)
+    row = np.repeat(np.arange(starts.size), lengths)
+    first = np.repeat(starts - (np.cumsum(lengths) - lengths), lengths)
+    return row, first + np.arange(row.size)
+
+
+def _disk_exact_rows(cols: slice, row_y: np.ndarray, cx: np.ndarray, cy: np.ndarray, r: float) -> np.ndarray:
+    """Exact disk coverage with the centre (cx[i], cy[i]) for pixel row i.
+
+    Pixels whose four corners lie inside the disk are fully covered (the disk
+    is convex); the closed form runs only on the others that the row's chord
+    reaches, O(perimeter) pixels instead of O(area).
+    """
+    y0, y1 = row_y - cy, (row_y + 1.0) - cy
+
+    def chord(y):
+        y = np.clip(y, -r, r)
+        return np.sqrt(np.maximum(r * r - y * y, 0.0))
+
+    outer = np.where((y0 < 0.0) & (y1 > 0.0), r, np.maximum(chord(y0), chord(y1)))
+    inner = np.where((y0 >= -r) & (y1 <= r), np.minimum(chord(y0), chord(y1)), 0.0)
+    lo = np.clip(np.floor(cx - outer), cols.start, cols.stop).astype(np.int64)
+    hi = np.clip(np.ceil(cx + outer), cols.start, cols.stop).astype(np.int64)
+    # A hair inside the chord, so rounding never calls a cut pixel full.
+    margin = 1e-9 * max(1.0, r)
+    inner_lo = np.clip(np.ceil(cx - inner + margin), lo, hi).astype(np.int64)
+    inner_hi = np.clip(np.floor(cx + inner - margin), inner_lo, hi).astype(np.int64)
+    columns = np.arange(cols.start, cols.stop)
+    coverage = ((columns >= inner_lo[:, None]) & (columns < inner_hi[:, None])).astype(np.float64)
+    row, col = (np.concatenate(pair) for pair in zip(_ragged_columns(lo, inner_lo), _ragged_columns(inner_hi, hi)))
+    x0, x1 = col.astype(np.float64) - cx[row], (col + 1).astype(np.float64) - cx[row]
+    Y0, Y1 = y0[row], y1[row]
+    G = _disk_corner_area
+    coverage[row, col - cols.start] = _snap(G(x1, Y1, r) - G(x0, Y1, r) - G(x1, Y0, r) + G(x0, Y0, r), r)
+    return coverage
+
+
+def footprint_per_row(
+    centre_x_px, centre_y_px, size_px: float, shape: str, frame_shape: tuple[int, int], edge: str = "exact"
+) -> Footprint:
+    """Coverage of a footprint whose centre differs from row to row.
+
+    Pixel row y sees the footprint centred at ``(centre_x_px[y],
+    centre_y_px[y])``: a moving LED seen through a rolling shutter, each row
+    at its own time. With the same centre on every row this is
+    :func:`footprint`, to the last bit.
+
+    Parameters
+    ----------
+    centre_x_px, centre_y_px : array_like of float, shape (height,)
+        Footprint centre for each frame row, in pixel coordinates.
+    size_px, shape, frame_shape, edge
+        As for :func:`footprint`.
+    """
+    _check_arguments(size_px, shape, edge)
+    height, width = frame_shape
+    cx_all = np.asarray(centre_x_px, dtype=np.float64)
+    cy_all = np.asarray(centre_y_px, dtype=np.float64)
+    half = 0.5 * size_px
+    y = np.arange(height)
+    touched = np.flatnonzero((np.floor(cy_all - half) <= y) & (y < np.ceil(cy_all + half)))
+    if touched.size == 0:
+        return Footprint(slice(0, 0), slice(0, 0), np.zeros((0, 0)))
+    rows = slice(int(touched[0]), int(touched[-1]) + 1)
+    cx, cy = cx_all[rows], cy_all[rows]
+    lo = max(0, int(np.floor(cx - half).min()))
+    cols = slice(lo, max(lo, min(width, int(np.ceil(cx + half).max()))))
+    row_y = np.arange(rows.start, rows.stop, dtype=np.float64)
+    if cols.stop == cols.start:
+        return Footprint(rows, cols, np.zeros((row_y.size, 0)))
+    if shape == "disk" and edge == "exact":
+        return Footprint(rows, cols, _disk_exact_rows(cols, row_y, cx, cy, half))
+    xs = np.arange(cols.start, cols.stop + 1, dtype=np.float64)[None, :] - cx[:, None]
+    if edge != "exact":
+        return Footprint(rows, cols, _supersample(xs, row_y - cy, size_px, shape, _SAMPLES_PER_SIDE[edge]))
+    return Footprint(rows, cols, _interval_overlap(row_y - cy, half)[:, None] * _interval_overlap(xs[:, :-1], half))

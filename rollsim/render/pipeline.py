@@ -59,7 +59,8 @@ class RenderPipeline:
     def render(self, index: int) -> RenderedFrame:
         """Render frame ``index``: the image and its truth record."""
         state = self.run_stages(index)
-        return RenderedFrame(state.index, state.image, frame_truth(self.setup, state.index, state.start_s))
+        truth = frame_truth(self.setup, state.index, state.start_s, state.led_rows)
+        return RenderedFrame(state.index, state.image, truth)
 
 
 def iter_frames(scene, n_frames: int, start: int = 0) -> Iterator[RenderedFrame]:

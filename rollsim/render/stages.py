@@ -14,24 +14,33 @@ A new effect slots in by adding a builder here (and its parameters to
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from rollsim.errors import RollsimError
+from rollsim.optics.motion import motion_footprint, path_from_params
+from rollsim.render.setup import led_rows_from_coverage
 from rollsim.seeds import rng as named_rng
 from rollsim.sensor import electrons_to_dn, gray8_lut
+from rollsim.sensor.blooming import bloom
+from rollsim.sensor.flicker import flicker_row_factor
+from rollsim.sensor.frame_jitter import FrameJitter, frame_jitter_error, frame_margin_s
 from rollsim.sensor.gaussian import standard_normal
 from rollsim.sensor.poisson import poisson
+from rollsim.transmitter.led_response import exposure_exact, exposure_sampled
 
 SLOTS = (
-    "timing",  # frame start time
-    "exposure",  # per-row integral of the LED waveform
+    "timing",  # frame start time (frame_jitter)
+    "geometry",  # this frame's LED footprint (motion)
+    "exposure",  # per-row integral of the LED waveform (led_rise_time) and ambient light (flicker)
     "signal",  # mean photo-electrons: LED, ambient light
     "dark",  # dark current
     "shot",  # photon shot noise
     "fixed_pattern",  # PRNU gain map, DSNU offset map
+    "blooming",  # charge above full well spills along columns
     "full_well",  # clip to [0, full well]
     "read",  # read noise
     "adc",  # conversion gain, black level, quantisation
@@ -75,14 +84,14 @@ def led_exposure_stage(setup) -> Stage:
 
 def led_signal_stage(setup) -> Stage:
     """Mean electrons of the LED: coverage × rate × ∫ s dt, per row."""
-    fp, rate, shape = setup.footprint, setup.led_e_per_s, setup.shape
-    cov = fp.coverage
+    rate, shape = setup.led_e_per_s, setup.shape
 
     def run(state):
+        fp = state.led_footprint
         electrons = np.zeros(shape)
-        if cov.size:
+        if fp.coverage.size:
             row_signal = rate * state.led_exposure_s[fp.rows]
-            electrons[fp.rows, fp.cols] = cov * row_signal[:, None]
+            electrons[fp.rows, fp.cols] = fp.coverage * row_signal[:, None]
         state.electrons = electrons
 
     return Stage("led_signal", "signal", run)
@@ -135,13 +144,21 @@ CORE_BUILDERS = (frame_start_stage, led_exposure_stage, led_signal_stage, full_w
 def ambient_stage(setup, params) -> Stage:
     """Ambient light: a lit background, hidden where the LED covers it, and
     ambient light reflected by the LED's face (which raises its OFF level)."""
-    fp, t_exp = setup.footprint, setup.timing.exposure_s
+    t_exp = setup.timing.exposure_s
     background = setup.background_e_per_s * t_exp
     # In the footprint the face replaces the background in proportion to coverage.
-    correction = (setup.face_e_per_s * t_exp - background) * fp.coverage
+    face_excess = setup.face_e_per_s * t_exp - background
+    static_correction = face_excess * setup.footprint.coverage
 
     def run(state):
-        state.electrons += background
+        fp = state.led_footprint
+        correction = static_correction if state.footprint is None else face_excess * fp.coverage
+        factor = state.ambient_row_factor  # flicker
+        if factor is None:
+            state.electrons += background
+        else:
+            state.electrons += (background * factor)[:, None]
+            correction = correction * factor[fp.rows, None]
         if correction.size:
             state.electrons[fp.rows, fp.cols] += correction
 
@@ -219,6 +236,75 @@ def tone_curve_stage(setup, params):
     return None
 
 
+def led_rise_time_stage(setup, params) -> Stage:
+    """First-order LED response: replaces each row's ∫ s dt by ∫ y dt."""
+    timing, waveform, tau = setup.timing, setup.transmitter.waveform, params.tau_us * 1e-6
+    if params.method == "exact":
+
+        def run(state):
+            start, end = timing.row_windows(state.start_s)
+            # The core's exact ∫ s dt is the first term of the closed form.
+            state.led_exposure_s = exposure_exact(waveform, start, end, tau, state.led_exposure_s)
+
+    else:
+
+        def run(state):
+            start, end = timing.row_windows(state.start_s)
+            state.led_exposure_s = exposure_sampled(waveform, start, end, tau, params.samples)
+
+    return Stage(f"led_rise_time[{params.method}]", "exposure", run)
+
+
+def frame_jitter_stage(setup, params) -> Stage:
+    """Frame k starts at k·T_f + ε_k."""
+    cam = setup.scene.camera
+    error = frame_jitter_error(cam, params)  # the loader refuses such scenes too
+    if error:
+        raise RollsimError(error)
+    margin = frame_margin_s(cam.frame_period_s, cam.readout_s, cam.exposure_s)
+    jitter = FrameJitter(setup.scene.seed, params.std_us * 1e-6, params.mode, margin)
+
+    def run(state):
+        state.start_s += jitter.offset_s(state.index)
+
+    return Stage(f"frame_jitter[{params.mode}]", "timing", run)
+
+
+def motion_stage(setup, params) -> Stage:
+    """Hand shake: this frame's LED footprint, each row seeing the LED where it is then."""
+    scene, timing = setup.scene, setup.timing
+    path = path_from_params(params, scene.seed, timing.frame_period_s)
+
+    def run(state):
+        start, end = timing.row_windows(state.start_s)
+        fp = motion_footprint(path, setup.led_centre_px, setup.led_size_px, scene.led.shape, setup.shape,
+                              0.5 * (start + end), scene.render.footprint_edge)
+        state.footprint = fp
+        state.led_rows = led_rows_from_coverage(fp.row_coverage(timing.height_px)) or ()
+
+    return Stage(f"motion[{params.mode}]", "geometry", run)
+
+
+def flicker_stage(setup, params) -> Stage:
+    """Mains flicker: each row's mean ambient illuminance over its exposure."""
+    timing, mains_hz, phase = setup.timing, setup.scene.environment.mains_hz, math.radians(params.phase_deg)
+
+    def run(state):
+        start, _ = timing.row_windows(state.start_s)
+        state.ambient_row_factor = flicker_row_factor(start, timing.exposure_s, mains_hz, params.depth, phase)
+
+    return Stage("flicker", "exposure", run)
+
+
+def blooming_stage(setup, params) -> Stage:
+    full_well = setup.scene.camera.full_well_e
+
+    def run(state):
+        bloom(state.electrons, full_well, params.spill_fraction)
+
+    return Stage("blooming", "blooming", run)
+
+
 EFFECT_BUILDERS = {
     "ambient": ambient_stage,
     "dark_current": dark_current_stage,
@@ -227,6 +313,11 @@ EFFECT_BUILDERS = {
     "dsnu": dsnu_stage,
     "read_noise": read_noise_stage,
     "tone_curve": tone_curve_stage,
+    "led_rise_time": led_rise_time_stage,
+    "frame_jitter": frame_jitter_stage,
+    "motion": motion_stage,
+    "flicker": flicker_stage,
+    "blooming": blooming_stage,
 }
 
 

@@ -29,6 +29,15 @@ class FrameState:
         ADC output.
     image : ndarray
         The output frame (uint8 or uint16).
+    footprint : Footprint or None
+        This frame's LED coverage when it differs from the setup's (the
+        ``motion`` effect); None means ``setup.footprint``.
+    led_rows : (int, int), () or None
+        This frame's LED rows for the truth; ``()`` when no row is an LED
+        row; None means ``setup.led_rows``.
+    ambient_row_factor : ndarray, shape (H,), or None
+        Relative ambient exposure of each row (the ``flicker`` effect);
+        None means 1.
     """
 
     setup: object
@@ -38,7 +47,15 @@ class FrameState:
     electrons: np.ndarray | None = None
     dn: np.ndarray | None = None
     image: np.ndarray | None = None
+    footprint: object | None = None
+    led_rows: tuple | None = None
+    ambient_row_factor: np.ndarray | None = None
     extras: dict = field(default_factory=dict)
+
+    @property
+    def led_footprint(self):
+        """The LED coverage of this frame."""
+        return self.setup.footprint if self.footprint is None else self.footprint
 
     def rng(self, stream: str) -> np.random.Generator:
         """Random generator of ``stream`` for this frame: depends only on the

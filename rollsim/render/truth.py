@@ -39,8 +39,8 @@ def frame_truth(setup, index: int, start_s: float, led_rows=None) -> dict:
     index : int
     start_s : float
         Actual frame start (with jitter, when that effect is on).
-    led_rows : (int, int) or None, optional
-        The LED's rows in this frame; defaults to the setup's.
+    led_rows : (int, int), () or None, optional
+        The LED's rows in this frame (``()``: none); None means the setup's.
     """
     timing, tx = setup.timing, setup.transmitter
     led_rows = setup.led_rows if led_rows is None else led_rows

@@ -44,6 +44,61 @@ class ToneCurve(_Params):
     gamma: float = Field(2.2, gt=0, le=10)
 
 
+class LedRiseTime(_Params):
+    """A first-order LED: its light follows the drive with time constant ``tau_us``.
+
+    ``method``: ``exact`` integrates the exponential segments in closed form;
+    ``sampled`` averages the light at ``samples`` midpoints of each exposure
+    window (a fidelity knob, compared against ``exact``). See
+    :mod:`rollsim.transmitter.led_response`.
+    """
+
+    tau_us: float = Field(5.0, gt=0, le=1e6)
+    method: Literal["exact", "sampled"] = "exact"
+    samples: int = Field(16, ge=1, le=4096)
+
+
+class FrameJitter(_Params):
+    """Frame start jitter: standard deviation ``std_us`` of each frame's
+    offset (``independent``) or of each frame-to-frame step (``random_walk``).
+    See :mod:`rollsim.sensor.frame_jitter`."""
+
+    std_us: float = Field(20.0, ge=0, le=1e6)
+    mode: Literal["independent", "random_walk"] = "independent"
+
+
+class Motion(_Params):
+    """Hand shake: the LED's image position moves, per axis, as a random walk
+    reflected at ±``amplitude_*_px`` (steps of std ``step_*_px`` per frame)
+    or as a sinusoid of amplitude ``amplitude_*_px`` at ``frequency_hz``.
+    See :mod:`rollsim.optics.motion`."""
+
+    mode: Literal["random_walk", "sinusoid"] = "random_walk"
+    amplitude_x_px: float = Field(8.0, ge=0, le=1e4)
+    amplitude_y_px: float = Field(8.0, ge=0, le=1e4)
+    step_x_px: float = Field(2.0, ge=0, le=1e4)
+    step_y_px: float = Field(2.0, ge=0, le=1e4)
+    frequency_hz: float = Field(10.0, gt=0, le=1e4)
+    phase_x_deg: float = Field(0.0, ge=-360, le=360)
+    phase_y_deg: float = Field(90.0, ge=-360, le=360)
+
+
+class Flicker(_Params):
+    """Mains flicker of the ambient light: E(t) = E0·(1 + depth·cos(2π·2f·t + phase)),
+    f = ``environment.mains_hz``. See :mod:`rollsim.sensor.flicker`."""
+
+    depth: float = Field(0.3, ge=0, le=1)
+    phase_deg: float = Field(0.0, ge=-360, le=360)
+
+
+class Blooming(_Params):
+    """Charge above ``camera.full_well_e`` spills along columns; a fraction
+    ``spill_fraction`` of the excess spills (1: no anti-blooming drain), the
+    rest drains away. See :mod:`rollsim.sensor.blooming`."""
+
+    spill_fraction: float = Field(1.0, ge=0, le=1)
+
+
 class Effects(_Params):
     """Which effects a scene calls for (``None`` = not listed, not computed)."""
 
@@ -58,11 +113,11 @@ class Effects(_Params):
     defocus: Optional[NoParams] = None
     bayer: Optional[NoParams] = None
     vignetting: Optional[NoParams] = None
-    led_rise_time: Optional[NoParams] = None
-    frame_jitter: Optional[NoParams] = None
-    motion: Optional[NoParams] = None
-    flicker: Optional[NoParams] = None
-    blooming: Optional[NoParams] = None
+    led_rise_time: Optional[LedRiseTime] = None
+    frame_jitter: Optional[FrameJitter] = None
+    motion: Optional[Motion] = None
+    flicker: Optional[Flicker] = None
+    blooming: Optional[Blooming] = None
 
     def enabled(self) -> tuple[str, ...]:
         """Names of the listed effects, in registry order."""

@@ -27,6 +27,7 @@ from rollsim.protocol import CRC8_MAX_DATA_BITS, min_header_bits, n_packets
 from rollsim.scene.effects import normalise_effects
 from rollsim.scene.model import Scene
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS
+from rollsim.sensor.frame_jitter import frame_jitter_error
 
 ROW_TIMING_KEYS = ("row_time_us", "ifg_ratio")
 
@@ -341,7 +342,17 @@ def consistency_errors(scene: Scene, source: str) -> list[str]:
         errors.append(f"{source}: channel: M + N must be at least 1")
     if cam.output == "rgb8" and scene.effects.bayer is None:
         errors.append(f"{source}: camera.output = 'rgb8': needs the bayer effect")
+    errors += [f"{source}: {line}" for line in _temporal_effect_errors(scene)]
     return errors
+
+
+def _temporal_effect_errors(scene: Scene) -> list[str]:
+    effects, errors = scene.effects, []
+    if effects.frame_jitter is not None:
+        errors.append(frame_jitter_error(scene.camera, effects.frame_jitter))
+    if effects.flicker is not None and effects.ambient is None:
+        errors.append("effects.flicker: modulates the ambient light; list the ambient effect too")
+    return [e for e in errors if e]
 
 
 # ------------------------------------------------------------------ entry points

@@ -119,6 +119,9 @@ class Environment(_Section):
     ambient_lux: float = Field(650.0, ge=0, le=1e7)
     background_reflectance: float = Field(0.5, ge=0, le=1)
     ambient_illuminant: Literal["FL2", "FL11", "D65", "A"] = "FL2"
+    # Any grid frequency in the range: the nominal 50 or 60 Hz, or off-nominal
+    # values (the flicker's drift across frames depends on the exact value).
+    mains_hz: float = Field(50.0, ge=40, le=70)
 
 
 class Channel(_Section):

@@ -19,7 +19,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy.special import ndtri
+from scipy.special import ndtr, ndtri
 
 NORMAL_METHODS = ("exact", "table")
 _BINS = 1 << 16
@@ -45,3 +45,18 @@ def standard_normal(rng: np.random.Generator, shape, method: str = "exact") -> n
         u = (bins.ravel()[tail] + rng.random(tail.size)) / _BINS
         z.ravel()[tail] = ndtri(u)
     return z
+
+
+def truncated_normal(uniform: np.ndarray, sigma: float, bound: float) -> np.ndarray:
+    """Normal(0, ``sigma``) truncated to ``[-bound, bound]``, one value per U[0, 1) draw.
+
+    Inverse CDF on the lower half only (``u < 1/2`` gives a negative value,
+    ``u >= 1/2`` its mirror image): the quantile of probabilities near 1
+    would round to ``inf``, those near 0 stay finite. The result is clipped
+    to ``[-bound, bound]`` against the last ulp. ``bound`` may be ``inf``.
+    """
+    lo = ndtr(-bound / sigma)  # P(Z < -a), may underflow to 0
+    half = np.where(uniform < 0.5, uniform, 1.0 - uniform)  # in (0, 1/2]
+    p = lo + 2.0 * half * (0.5 - lo)
+    z = np.maximum(ndtri(np.maximum(p, np.finfo(float).tiny)), -bound / sigma)
+    return np.clip(np.where(uniform < 0.5, z, -z) * sigma, -bound, bound)

@@ -113,10 +113,13 @@ class Waveform:
         """Index of the chip being sent at times ``t_s`` (int64)."""
         return self.chip_position(t_s)[0]
 
+    def chip_level(self, chip) -> np.ndarray:
+        """Relative LED intensity of chips ``chip`` (int64 indices)."""
+        return np.where(self.chips.values(chip) == 1, self.on_level, self.off_level)
+
     def level(self, t_s) -> np.ndarray:
         """s(t): the relative LED intensity at times ``t_s``."""
-        on = self.chips.values(self.chip_index(t_s))
-        return np.where(on == 1, self.on_level, self.off_level)
+        return self.chip_level(self.chip_index(t_s))
 
     def _on_chip_count(self, t_s) -> tuple[np.ndarray, np.ndarray]:
         # Integer part and fractional part of the number of ON chips in [t0, t).

@@ -1,3 +1,4 @@
+import numpy as np
 import pytest
 
 from rollsim.scene import scene_from_dict
@@ -24,3 +25,16 @@ def make_scene(effects=(), **sections):
 @pytest.fixture
 def scene_factory():
     return make_scene
+
+
+class SingleChip:
+    """Chip source with one ON chip (index ``on``), OFF elsewhere."""
+
+    def __init__(self, on):
+        self.on = on
+
+    def values(self, chip):
+        return (np.asarray(chip) == self.on).astype(np.uint8)
+
+    def ones_before(self, chip):
+        return (np.asarray(chip, dtype=np.int64) > self.on).astype(np.int64)

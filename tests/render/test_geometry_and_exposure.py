@@ -10,7 +10,7 @@ from rollsim.render import RenderPipeline
 from rollsim.render.setup import MIN_ROW_COVERAGE_PX
 from rollsim.transmitter import Waveform
 
-from conftest import make_scene
+from conftest import SingleChip, make_scene
 
 
 def _led_profile(pipeline, index=0):
@@ -52,19 +52,6 @@ def test_stripe_period_equals_two_chips_over_row_time(clock_hz, row_time_us, exp
     assert periods and all(abs(p - expected) < 0.5 for p in periods)
 
 
-class _SingleChip:
-    """Chip source with one ON chip (index ``on``), OFF elsewhere."""
-
-    def __init__(self, on):
-        self.on = on
-
-    def values(self, chip):
-        return (np.asarray(chip) == self.on).astype(np.uint8)
-
-    def ones_before(self, chip):
-        return (np.asarray(chip, dtype=np.int64) > self.on).astype(np.int64)
-
-
 @pytest.mark.parametrize("exposure_us", [40.0, 125.0, 300.0])
 def test_single_chip_profile_is_the_predicted_trapezoid(exposure_us):
     """An isolated chip of length T_c seen with exposure t_exp lights rows over
@@ -77,7 +64,7 @@ def test_single_chip_profile_is_the_predicted_trapezoid(exposure_us):
     pipeline = RenderPipeline(scene)
     clock = 8000.0
     chip_on = 10  # starts at 1.25 ms, row 125
-    wave = Waveform(_SingleChip(chip_on), clock)
+    wave = Waveform(SingleChip(chip_on), clock)
     tx = dataclasses.replace(pipeline.setup.transmitter, waveform=wave)
     pipeline = RenderPipeline.from_setup(dataclasses.replace(pipeline.setup, transmitter=tx))
     state = pipeline.run_stages(0)

@@ -88,7 +88,11 @@ def test_bad_scene_writes_nothing(tmp_path, capsys):
     assert not out.exists() and not list(tmp_path.iterdir())
 
 
-def test_unavailable_effect_is_a_clear_error(tmp_path, capsys):
+def test_unavailable_effect_is_a_clear_error(tmp_path, capsys, monkeypatch):
+    from rollsim.render import stages
+
+    # A registered name whose builder is missing (as before an effect lands).
+    monkeypatch.delitem(stages.EFFECT_BUILDERS, "motion")
     out = tmp_path / "run"
     assert main(["render", "paper-default", "--frames", "1", "--out", str(out), "--set", "effects.motion=null", *SMALL]) == 2
     assert capsys.readouterr().err.splitlines() == [

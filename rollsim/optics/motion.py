@@ -1,0 +1,130 @@
+"""Hand shake: the LED's image moves, and each row sees it where it is then.
+
+The offset of the LED image from its rest position is a path p(t) in pixels,
+per axis:
+
+``sinusoid``
+    p(t) = A·sin(2π·f·t + φ): a tremor at f (physiological hand tremor is
+    8–12 Hz).
+``random_walk``
+    A walk reflected at ±A: free knots X_k = X_{k−1} + δ_k at the nominal
+    frame starts t = k·T_f (X_0 = 0, δ_k ~ Normal(0, step) per axis, drawn
+    from a per-scene stream, :mod:`rollsim.walk`), joined by straight
+    lines, and folded into [−A, A] by the triangle wave
+    fold(X) = A − |((X + A) mod 4A) − 2A|. Folding the free walk is the same
+    as reflecting every step at the bounds (up to the sign of the steps,
+    which is symmetric), and costs one cumulative sum instead of a loop.
+
+Within a frame the path is continuous and row y sees the LED centred at its
+position at the middle of row y's exposure, t_k + y·t_row + t_exp/2 (the
+rolling-shutter skew): a horizontal motion shears the footprint, a vertical
+one stretches or squeezes it. At a constant vertical speed v (px/s) row y
+sees the centre at c + v·y·t_row, so the rows the LED covers span
+D/(1 − v·t_row) instead of D.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rollsim.optics.footprint import Footprint, footprint_per_row
+from rollsim.walk import FrameSequence
+
+STREAM = "motion"
+
+
+@dataclass(frozen=True)
+class SinusoidPath:
+    """p(t) = amplitude·sin(2π·frequency·t + phase), per axis.
+
+    Parameters
+    ----------
+    amplitude_px : (float, float)
+        x and y amplitude in pixels.
+    frequency_hz : float
+    phase_rad : (float, float)
+        x and y phase at t = 0.
+    """
+
+    amplitude_px: tuple
+    frequency_hz: float
+    phase_rad: tuple
+
+    def offset_px(self, t_s) -> np.ndarray:
+        """Offsets (dx, dy) in pixels at times ``t_s``, shape (n, 2)."""
+        cycles = np.mod(self.frequency_hz * np.asarray(t_s, dtype=np.float64), 1.0)[:, None]
+        return np.asarray(self.amplitude_px) * np.sin(2.0 * np.pi * cycles + np.asarray(self.phase_rad))
+
+
+def fold(x: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """Triangle wave: x reflected into [−bound, bound] (0 where bound is 0)."""
+    bound = np.broadcast_to(bound, x.shape)
+    period = 4.0 * bound
+    safe = np.where(period > 0, period, 1.0)
+    return np.where(period > 0, bound - np.abs(np.mod(x + bound, safe) - 2.0 * bound), 0.0)
+
+
+class ReflectedWalkPath:
+    """A random walk with knots at the frame starts, reflected at ±bound.
+
+    Parameters
+    ----------
+    seed : int
+        Scene seed.
+    step_px : (float, float)
+        Standard deviation of each per-frame step, x and y, in pixels.
+    bound_px : (float, float)
+        Reflecting bounds A, x and y, in pixels.
+    frame_period_s : float
+        Spacing T_f of the knots.
+    """
+
+    def __init__(self, seed: int, step_px, bound_px, frame_period_s: float):
+        self.step_px = np.asarray(step_px, dtype=np.float64)
+        self.bound_px = np.asarray(bound_px, dtype=np.float64)
+        self.frame_period_s = frame_period_s
+        self._steps = FrameSequence(seed, STREAM, 2)
+
+    def knots_px(self, k) -> np.ndarray:
+        """Free (unfolded) walk X_k at knots ``k``, shape (n, 2); X_k = 0 for k ≤ 0."""
+        k = np.asarray(k, dtype=np.int64)
+        return self._steps.walk(np.maximum(k, 0)) * self.step_px
+
+    def offset_px(self, t_s) -> np.ndarray:
+        """Offsets (dx, dy) in pixels at times ``t_s``, shape (n, 2)."""
+        u = np.asarray(t_s, dtype=np.float64) / self.frame_period_s
+        k = np.floor(u).astype(np.int64)
+        first = int(k.min())
+        knots = self.knots_px(np.arange(first, int(k.max()) + 2))
+        w = (u - k)[:, None]
+        free = knots[k - first] * (1.0 - w) + knots[k - first + 1] * w
+        return fold(free, self.bound_px)
+
+
+def path_from_params(params, seed: int, frame_period_s: float):
+    """The path a :class:`rollsim.scene.effects.Motion` describes."""
+    amplitude = (params.amplitude_x_px, params.amplitude_y_px)
+    if params.mode == "sinusoid":
+        return SinusoidPath(amplitude, params.frequency_hz, (np.radians(params.phase_x_deg), np.radians(params.phase_y_deg)))
+    return ReflectedWalkPath(seed, (params.step_x_px, params.step_y_px), amplitude, frame_period_s)
+
+
+def motion_footprint(path, centre_px, size_px: float, shape: str, frame_shape: tuple[int, int],
+                     row_times_s: np.ndarray, edge: str = "exact") -> Footprint:
+    """The LED footprint of one frame, each row seeing the LED where it is then.
+
+    Parameters
+    ----------
+    path : SinusoidPath or ReflectedWalkPath
+        Anything with ``offset_px(t_s) -> (n, 2)``.
+    centre_px : (float, float)
+        Rest position (x, y) of the LED centre, in pixels.
+    size_px, shape, frame_shape, edge
+        As for :func:`rollsim.optics.footprint.footprint`.
+    row_times_s : ndarray, shape (height,)
+        The time each frame row sees, in seconds (mid-exposure).
+    """
+    offset = path.offset_px(row_times_s)
+    return footprint_per_row(centre_px[0] + offset[:, 0], centre_px[1] + offset[:, 1], size_px, shape, frame_shape, edge)
