@@ -10,18 +10,31 @@ closed registry: a scene never names code.
 
 A new effect slots in by adding a builder here (and its parameters to
 :mod:`rollsim.scene.effects`); the core stages do not change.
+
+Per-scene hooks. An effect that changes what every frame shares rather than
+adding work to each frame (a lens PSF reshapes the LED's coverage map;
+vignetting and a colour filter array make the electron rates per-pixel maps)
+registers a hook in :data:`SETUP_HOOKS`: a function ``SceneSetup ->
+SceneSetup``. :func:`prepare_setup` runs the hooks of the listed effects
+once per scene, in registry order, before any stage is built; the
+pipeline's stages and truth then read the prepared setup. Its effects build
+no stage of their own (their builder returns None), so they cost nothing
+per frame beyond the arrays they change. The rates a hook leaves are a float
+or an (H, W) map; the stages take either.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
 from rollsim.errors import RollsimError
+from rollsim.render import hooks
 from rollsim.seeds import rng as named_rng
 from rollsim.sensor import electrons_to_dn, gray8_lut
+from rollsim.sensor.cfa import demosaic, poisson_by_phase
 from rollsim.sensor.gaussian import standard_normal
 from rollsim.sensor.poisson import poisson
 
@@ -51,6 +64,11 @@ class Stage:
         self.run(state)
 
 
+def _on_box(rate, fp):
+    """A rate on the footprint's bounding box: a float as is, a map sliced."""
+    return rate[fp.rows, fp.cols] if np.ndim(rate) else rate
+
+
 # ------------------------------------------------------------------ core
 
 
@@ -77,6 +95,9 @@ def led_signal_stage(setup) -> Stage:
     """Mean electrons of the LED: coverage × rate × ∫ s dt, per row."""
     fp, rate, shape = setup.footprint, setup.led_e_per_s, setup.shape
     cov = fp.coverage
+    if np.ndim(rate):
+        # Per-pixel rates: folded into the coverage once, not per frame.
+        cov, rate = cov * _on_box(rate, fp), 1.0
 
     def run(state):
         electrons = np.zeros(shape)
@@ -123,6 +144,14 @@ def output_stage(setup) -> Stage:
             state.image = lut[state.dn]
 
         return Stage("gray8" if gamma is None else "gray8_tone_curve", "output", run)
+    if cam.output == "rgb8":
+        # The scene loader lets rgb8 through only with the bayer effect.
+        bayer, lut = effects.bayer, gray8_lut(cam.black_level_dn, cam.adc_bits)
+
+        def run(state):
+            state.image = demosaic(lut[state.dn], bayer.pattern, bayer.demosaic)
+
+        return Stage(f"rgb8[{bayer.demosaic}]", "output", run)
     raise RollsimError(f"camera.output = {cam.output!r} is not available yet in this version of rollsim")
 
 
@@ -138,7 +167,7 @@ def ambient_stage(setup, params) -> Stage:
     fp, t_exp = setup.footprint, setup.timing.exposure_s
     background = setup.background_e_per_s * t_exp
     # In the footprint the face replaces the background in proportion to coverage.
-    correction = (setup.face_e_per_s * t_exp - background) * fp.coverage
+    correction = (_on_box(setup.face_e_per_s, fp) * t_exp - _on_box(background, fp)) * fp.coverage
 
     def run(state):
         state.electrons += background
@@ -159,9 +188,11 @@ def dark_current_stage(setup, params) -> Stage:
 
 def shot_noise_stage(setup, params) -> Stage:
     if params.method == "poisson":
+        # A mosaic is sampled by CFA phase, where the sampler's fast runs are.
+        sampler = poisson if setup.scene.effects.bayer is None else poisson_by_phase
 
         def run(state):
-            state.electrons = poisson(state.rng("shot_noise"), state.electrons)
+            state.electrons = sampler(state.rng("shot_noise"), state.electrons)
 
     else:
         # Gaussian approximation N(μ, μ): one (table) normal deviate per pixel.
@@ -219,6 +250,11 @@ def tone_curve_stage(setup, params):
     return None
 
 
+def per_scene_only(setup, params):
+    # The effect's work is all in its per-scene hook (SETUP_HOOKS).
+    return None
+
+
 EFFECT_BUILDERS = {
     "ambient": ambient_stage,
     "dark_current": dark_current_stage,
@@ -227,7 +263,36 @@ EFFECT_BUILDERS = {
     "dsnu": dsnu_stage,
     "read_noise": read_noise_stage,
     "tone_curve": tone_curve_stage,
+    "blur": per_scene_only,
+    "defocus": per_scene_only,
+    "bayer": per_scene_only,
+    "vignetting": per_scene_only,
 }
+
+# (effect names, hook), run in this order: the CFA recomputes the rates from
+# spectra before the PSF and vignetting scale them; one PSF hook serves blur
+# and defocus, whose kernels convolve when both are listed.
+SETUP_HOOKS = (
+    (("bayer",), hooks.colour_filter_array),
+    (("blur", "defocus"), hooks.lens_psf),
+    (("vignetting",), hooks.vignetting),
+)
+
+
+def prepare_setup(setup):
+    """Run the per-scene hooks of the listed effects once (see the module docstring).
+
+    A setup already prepared is returned as it is.
+    """
+    if setup.prepared is not None:
+        return setup
+    listed = set(setup.scene.effects.enabled())
+    ran = []
+    for names, hook in SETUP_HOOKS:
+        if listed.intersection(names):
+            setup = hook(setup)
+            ran += [name for name in names if name in listed]
+    return replace(setup, prepared=tuple(ran))
 
 
 def assemble_stages(setup) -> list[Stage]:
