@@ -50,19 +50,18 @@ def defocus_diameter_px(scene) -> float:
     return c_m / (cam.pixel_pitch_um * 1e-6)
 
 
-def lens_psf(setup):
-    """``blur`` and/or ``defocus``: the coverage convolved by every listed kernel.
+def lens_kernels(scene) -> tuple[list, float]:
+    """The scene's lens PSF: its kernels and the image scale v_f/v.
 
-    With ``defocus`` the sensor sits at the focus distance's image plane, so
-    the LED's image is v_f/v times larger and its light per unit area
-    (v/v_f)² times smaller (:func:`rollsim.optics.psf.defocus_image_scale`).
-    The LED rows are those of the blurred coverage: a row belongs to the LED
-    when the LED's light in it adds up to :data:`MIN_ROW_COVERAGE_PX` fully
-    covered pixels, the same threshold as without a PSF.
+    The kernels are those of ``blur`` and ``defocus``, in that order (they
+    convolve; see :func:`rollsim.optics.psf.convolve_full`). With
+    ``defocus`` the sensor sits at the focus distance's image plane, so the
+    LED's image is v_f/v times larger (1 without ``defocus``). Any code that
+    computes an LED footprint (e.g. per frame) passes both to
+    :func:`rollsim.optics.psf.blurred_footprint`.
     """
-    scene = setup.scene
     effects, cam = scene.effects, scene.camera
-    kernels, size_px, rate_scale = [], setup.led_size_px, 1.0
+    kernels, scale = [], 1.0
     if effects.blur is not None:
         kernels.append(blur_kernel(effects.blur))
     if effects.defocus is not None:
@@ -74,15 +73,31 @@ def lens_psf(setup):
             )
         kernels.append(disk_kernel(diameter))
         scale = defocus_image_scale(cam.focal_length_mm * 1e-3, scene.link.distance_m, effects.defocus.focus_distance_m)
-        size_px, rate_scale = size_px * scale, scale**-2
+    return kernels, scale
+
+
+def lens_psf(setup):
+    """``blur`` and/or ``defocus``: the coverage convolved by every listed kernel.
+
+    The image is rescaled by v_f/v (:func:`lens_kernels`) and its light per
+    unit area by (v/v_f)², so the LED's light is conserved. The LED rows are
+    those of the blurred coverage: a row belongs to the LED when the LED's
+    light in it adds up to ``MIN_ROW_COVERAGE_PX`` fully covered pixels,
+    the same rule as without a PSF (where it marks the footprint's geometric
+    extent). A strong blur thus counts a dim rim: the light is there, with
+    its stripes, though a decoder may not find it.
+    """
+    scene = setup.scene
+    kernels, scale = lens_kernels(scene)
+    size_px = setup.led_size_px * scale
     fp = blurred_footprint(setup.led_centre_px, size_px, scene.led.shape, setup.shape, kernels, scene.render.footprint_edge)
     return replace(
         setup,
         footprint=fp,
         led_size_px=size_px,
-        led_rows=led_rows_from_coverage(fp.row_coverage(cam.height_px)),
-        led_e_per_s=setup.led_e_per_s * rate_scale,
-        face_e_per_s=setup.face_e_per_s * rate_scale,
+        led_rows=led_rows_from_coverage(fp.row_coverage(scene.camera.height_px)),
+        led_e_per_s=setup.led_e_per_s * scale**-2,
+        face_e_per_s=setup.face_e_per_s * scale**-2,
     )
 
 

@@ -93,7 +93,8 @@ class SceneSetup:
     led_size_px : float
     led_rows : (int, int) or None
         First and last LED row (rows covered by at least
-        :data:`MIN_ROW_COVERAGE_PX` of pixel area); None if none is.
+        :data:`MIN_ROW_COVERAGE_PX` of pixel area, of the blurred coverage
+        when a lens PSF is listed); None if none is.
     led_e_per_s, background_e_per_s, face_e_per_s : float or ndarray
         Electron rates per fully covered pixel (see module docstring): one
         value for every pixel, or an (H, W) map once an effect makes them
