@@ -8,7 +8,7 @@ from typing import Iterator
 import numpy as np
 
 from rollsim.render.setup import SceneSetup, build_setup
-from rollsim.render.stages import Stage, assemble_stages
+from rollsim.render.stages import Stage, assemble_stages, prepare_setup
 from rollsim.render.state import FrameState
 from rollsim.render.truth import frame_truth
 
@@ -35,12 +35,16 @@ class RenderPipeline:
         self._init(build_setup(scene))
 
     def _init(self, setup: SceneSetup) -> None:
-        self.setup = setup
-        self.stages: tuple[Stage, ...] = tuple(assemble_stages(setup))
+        self.setup = prepare_setup(setup)
+        self.stages: tuple[Stage, ...] = tuple(assemble_stages(self.setup))
 
     @classmethod
     def from_setup(cls, setup: SceneSetup) -> "RenderPipeline":
-        """A pipeline over a given (possibly modified) setup, e.g. a custom transmitter."""
+        """A pipeline over a given (possibly modified) setup, e.g. a custom transmitter.
+
+        The effects' per-scene hooks run unless ``setup`` is already
+        prepared (a pipeline's own ``setup`` is).
+        """
         pipeline = cls.__new__(cls)
         pipeline._init(setup)
         return pipeline

@@ -36,33 +36,46 @@ def led_emitting_area_m2(size_m: float, shape: str) -> float:
     return math.pi * (0.5 * size_m) ** 2 if shape == "disk" else size_m**2
 
 
-def led_electron_rate(scene) -> float:
-    """Electrons per second in a pixel fully covered by the LED at level 1 (ON)."""
+def led_sensor_illuminance_lx(scene) -> float:
+    """Sensor-plane illuminance of the LED's image at level 1 (ON), on axis."""
     cam, led = scene.camera, scene.led
     m = magnification(cam.focal_length_mm * 1e-3, scene.link.distance_m)
     luminance = led_luminance_cd_m2(led.luminous_intensity_cd, led_emitting_area_m2(led.size_mm * 1e-3, led.shape))
-    illuminance = sensor_illuminance_lx(luminance, cam.f_number, cam.lens_transmission, m)
+    return sensor_illuminance_lx(luminance, cam.f_number, cam.lens_transmission, m)
+
+
+def led_electron_rate(scene) -> float:
+    """Electrons per second in a pixel fully covered by the LED at level 1 (ON)."""
+    cam, led = scene.camera, scene.led
+    illuminance = led_sensor_illuminance_lx(scene)
     photons = photon_rate_per_pixel(illuminance, cam.pixel_pitch_um * 1e-6, photons_per_lumen_monochromatic(led.peak_wavelength_nm))
     return cam.qe * photons
 
 
-def ambient_electron_rates(scene) -> tuple[float, float]:
-    """Electrons per second per pixel from ambient light: (background, LED face).
+def ambient_sensor_illuminances_lx(scene) -> tuple[float, float]:
+    """Sensor-plane illuminance of ambient light, on axis: (background, LED face).
 
     The background is Lambertian with ``environment.background_reflectance``
     and far away (m → 0); the LED's face reflects ambient light with
     ``led.face_reflectance`` at the LED's magnification.
     """
     cam, env = scene.camera, scene.environment
-    ppl = photons_per_lumen_illuminant(env.ambient_illuminant)
-    pitch = cam.pixel_pitch_um * 1e-6
     m = magnification(cam.focal_length_mm * 1e-3, scene.link.distance_m)
 
-    def rate(reflectance: float, mag: float) -> float:
+    def illuminance(reflectance: float, mag: float) -> float:
         luminance = lambertian_luminance_cd_m2(env.ambient_lux, reflectance)
-        return cam.qe * photon_rate_per_pixel(sensor_illuminance_lx(luminance, cam.f_number, cam.lens_transmission, mag), pitch, ppl)
+        return sensor_illuminance_lx(luminance, cam.f_number, cam.lens_transmission, mag)
 
-    return rate(env.background_reflectance, 0.0), rate(scene.led.face_reflectance, m)
+    return illuminance(env.background_reflectance, 0.0), illuminance(scene.led.face_reflectance, m)
+
+
+def ambient_electron_rates(scene) -> tuple[float, float]:
+    """Electrons per second per pixel from ambient light: (background, LED face)
+    (see :func:`ambient_sensor_illuminances_lx`)."""
+    cam = scene.camera
+    ppl = photons_per_lumen_illuminant(scene.environment.ambient_illuminant)
+    pitch = cam.pixel_pitch_um * 1e-6
+    return tuple(cam.qe * photon_rate_per_pixel(e, pitch, ppl) for e in ambient_sensor_illuminances_lx(scene))
 
 
 @dataclass(frozen=True)
@@ -80,11 +93,17 @@ class SceneSetup:
     led_size_px : float
     led_rows : (int, int) or None
         First and last LED row (rows covered by at least
-        :data:`MIN_ROW_COVERAGE_PX` of pixel area); None if none is.
-    led_e_per_s, background_e_per_s, face_e_per_s : float
-        Electron rates per fully covered pixel (see module docstring).
+        :data:`MIN_ROW_COVERAGE_PX` of pixel area, of the blurred coverage
+        when a lens PSF is listed); None if none is.
+    led_e_per_s, background_e_per_s, face_e_per_s : float or ndarray
+        Electron rates per fully covered pixel (see module docstring): one
+        value for every pixel, or an (H, W) map once an effect makes them
+        depend on the pixel (vignetting, a colour filter array).
     gain_dn_per_e : float
         Conversion gain at the set ISO.
+    prepared : tuple of str or None
+        Effects whose per-scene hooks have run
+        (:func:`rollsim.render.stages.prepare_setup`); None before.
     """
 
     scene: object
@@ -98,6 +117,7 @@ class SceneSetup:
     background_e_per_s: float
     face_e_per_s: float
     gain_dn_per_e: float
+    prepared: tuple | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -10,22 +10,36 @@ closed registry: a scene never names code.
 
 A new effect slots in by adding a builder here (and its parameters to
 :mod:`rollsim.scene.effects`); the core stages do not change.
+
+Per-scene hooks. An effect that changes what every frame shares rather than
+adding work to each frame (a lens PSF reshapes the LED's coverage map;
+vignetting and a colour filter array make the electron rates per-pixel maps)
+registers a hook in :data:`SETUP_HOOKS`: a function ``SceneSetup ->
+SceneSetup``. :func:`prepare_setup` runs the hooks of the listed effects
+once per scene, in registry order, before any stage is built; the
+pipeline's stages and truth then read the prepared setup. Its effects build
+no stage of their own (their builder returns None), so they cost nothing
+per frame beyond the arrays they change. The rates a hook leaves are a float
+or an (H, W) map; the stages take either.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
 
 from rollsim.errors import RollsimError
 from rollsim.optics.motion import motion_footprint, path_from_params
+from rollsim.optics.psf import blur_canvas, total_radius
+from rollsim.render import hooks
 from rollsim.render.setup import led_rows_from_coverage
 from rollsim.seeds import rng as named_rng
 from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.blooming import bloom
+from rollsim.sensor.cfa import demosaic, poisson_by_phase
 from rollsim.sensor.flicker import flicker_row_factor
 from rollsim.sensor.frame_jitter import FrameJitter, frame_jitter_error, frame_margin_s
 from rollsim.sensor.gaussian import standard_normal
@@ -60,6 +74,11 @@ class Stage:
         self.run(state)
 
 
+def _on_box(rate, fp):
+    """A rate on the footprint's bounding box: a float as is, a map sliced."""
+    return rate[fp.rows, fp.cols] if np.ndim(rate) else rate
+
+
 # ------------------------------------------------------------------ core
 
 
@@ -85,13 +104,23 @@ def led_exposure_stage(setup) -> Stage:
 def led_signal_stage(setup) -> Stage:
     """Mean electrons of the LED: coverage × rate × ∫ s dt, per row."""
     rate, shape = setup.led_e_per_s, setup.shape
+    static = setup.footprint
+    # Per-pixel rates (vignetting, a CFA) fold into the static coverage once;
+    # a moving footprint's are folded per frame.
+    static_coverage = static.coverage * _on_box(rate, static) if np.ndim(rate) else static.coverage
+    scalar_rate = 1.0 if np.ndim(rate) else rate
+
+    def coverage_of(fp):
+        if fp is static:
+            return static_coverage
+        return fp.coverage * _on_box(rate, fp) if np.ndim(rate) else fp.coverage
 
     def run(state):
         fp = state.led_footprint
         electrons = np.zeros(shape)
         if fp.coverage.size:
-            row_signal = rate * state.led_exposure_s[fp.rows]
-            electrons[fp.rows, fp.cols] = fp.coverage * row_signal[:, None]
+            row_signal = scalar_rate * state.led_exposure_s[fp.rows]
+            electrons[fp.rows, fp.cols] = coverage_of(fp) * row_signal[:, None]
         state.electrons = electrons
 
     return Stage("led_signal", "signal", run)
@@ -132,6 +161,14 @@ def output_stage(setup) -> Stage:
             state.image = lut[state.dn]
 
         return Stage("gray8" if gamma is None else "gray8_tone_curve", "output", run)
+    if cam.output == "rgb8":
+        # The scene loader lets rgb8 through only with the bayer effect.
+        bayer, lut = effects.bayer, gray8_lut(cam.black_level_dn, cam.adc_bits)
+
+        def run(state):
+            state.image = demosaic(lut[state.dn], bayer.pattern, bayer.demosaic)
+
+        return Stage(f"rgb8[{bayer.demosaic}]", "output", run)
     raise RollsimError(f"camera.output = {cam.output!r} is not available yet in this version of rollsim")
 
 
@@ -145,19 +182,22 @@ def ambient_stage(setup, params) -> Stage:
     """Ambient light: a lit background, hidden where the LED covers it, and
     ambient light reflected by the LED's face (which raises its OFF level)."""
     t_exp = setup.timing.exposure_s
-    background = setup.background_e_per_s * t_exp
-    # In the footprint the face replaces the background in proportion to coverage.
-    face_excess = setup.face_e_per_s * t_exp - background
-    static_correction = face_excess * setup.footprint.coverage
+    background = setup.background_e_per_s * t_exp  # a float, or a map (vignetting, a CFA)
+
+    def correction_of(fp):
+        # In the footprint the face replaces the background in proportion to coverage.
+        return (_on_box(setup.face_e_per_s, fp) * t_exp - _on_box(background, fp)) * fp.coverage
+
+    static_correction = correction_of(setup.footprint)
 
     def run(state):
         fp = state.led_footprint
-        correction = static_correction if state.footprint is None else face_excess * fp.coverage
+        correction = static_correction if state.footprint is None else correction_of(fp)
         factor = state.ambient_row_factor  # flicker
         if factor is None:
             state.electrons += background
         else:
-            state.electrons += (background * factor)[:, None]
+            state.electrons += background * factor[:, None]
             correction = correction * factor[fp.rows, None]
         if correction.size:
             state.electrons[fp.rows, fp.cols] += correction
@@ -176,9 +216,11 @@ def dark_current_stage(setup, params) -> Stage:
 
 def shot_noise_stage(setup, params) -> Stage:
     if params.method == "poisson":
+        # A mosaic is sampled by CFA phase, where the sampler's fast runs are.
+        sampler = poisson if setup.scene.effects.bayer is None else poisson_by_phase
 
         def run(state):
-            state.electrons = poisson(state.rng("shot_noise"), state.electrons)
+            state.electrons = sampler(state.rng("shot_noise"), state.electrons)
 
     else:
         # Gaussian approximation N(μ, μ): one (table) normal deviate per pixel.
@@ -274,11 +316,20 @@ def motion_stage(setup, params) -> Stage:
     """Hand shake: this frame's LED footprint, each row seeing the LED where it is then."""
     scene, timing = setup.scene, setup.timing
     path = path_from_params(params, scene.seed, timing.frame_period_s)
+    # With a lens PSF the frame's footprint is computed on a canvas extended
+    # by the PSF's reach (rows there see the LED where it is at their time)
+    # and blurred, exactly as the static footprint is once per scene.
+    kernels = hooks.lens_kernels(scene)[0] if scene.effects.blur or scene.effects.defocus else []
+    ry, rx = total_radius(kernels)
+    height, width = setup.shape
+    cx, cy = setup.led_centre_px
+    rows = np.arange(-ry, height + ry)
 
     def run(state):
-        start, end = timing.row_windows(state.start_s)
-        fp = motion_footprint(path, setup.led_centre_px, setup.led_size_px, scene.led.shape, setup.shape,
-                              0.5 * (start + end), scene.render.footprint_edge)
+        mid_exposure_s = state.start_s + rows * timing.row_time_s + 0.5 * timing.exposure_s
+        canvas = motion_footprint(path, (cx + rx, cy + ry), setup.led_size_px, scene.led.shape,
+                                  (height + 2 * ry, width + 2 * rx), mid_exposure_s, scene.render.footprint_edge)
+        fp = blur_canvas(canvas, kernels, setup.shape) if kernels else canvas
         state.footprint = fp
         state.led_rows = led_rows_from_coverage(fp.row_coverage(timing.height_px)) or ()
 
@@ -305,6 +356,11 @@ def blooming_stage(setup, params) -> Stage:
     return Stage("blooming", "blooming", run)
 
 
+def per_scene_only(setup, params):
+    # The effect's work is all in its per-scene hook (SETUP_HOOKS).
+    return None
+
+
 EFFECT_BUILDERS = {
     "ambient": ambient_stage,
     "dark_current": dark_current_stage,
@@ -318,7 +374,36 @@ EFFECT_BUILDERS = {
     "motion": motion_stage,
     "flicker": flicker_stage,
     "blooming": blooming_stage,
+    "blur": per_scene_only,
+    "defocus": per_scene_only,
+    "bayer": per_scene_only,
+    "vignetting": per_scene_only,
 }
+
+# (effect names, hook), run in this order: the CFA recomputes the rates from
+# spectra before the PSF and vignetting scale them; one PSF hook serves blur
+# and defocus, whose kernels convolve when both are listed.
+SETUP_HOOKS = (
+    (("bayer",), hooks.colour_filter_array),
+    (("blur", "defocus"), hooks.lens_psf),
+    (("vignetting",), hooks.vignetting),
+)
+
+
+def prepare_setup(setup):
+    """Run the per-scene hooks of the listed effects once (see the module docstring).
+
+    A setup already prepared is returned as it is.
+    """
+    if setup.prepared is not None:
+        return setup
+    listed = set(setup.scene.effects.enabled())
+    ran = []
+    for names, hook in SETUP_HOOKS:
+        if listed.intersection(names):
+            setup = hook(setup)
+            ran += [name for name in names if name in listed]
+    return replace(setup, prepared=tuple(ran))
 
 
 def assemble_stages(setup) -> list[Stage]:

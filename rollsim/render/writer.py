@@ -45,7 +45,9 @@ class RenderSummary:
 
 
 def encode_png(image) -> bytes:
-    """PNG bytes of an 8- or 16-bit image."""
+    """PNG bytes of an 8- or 16-bit image: gray ``(H, W)`` or RGB ``(H, W, 3)``."""
+    if image.ndim == 3:
+        image = image[:, :, ::-1]  # OpenCV writes BGR: the PNG holds true RGB
     ok, buffer = cv2.imencode(".png", image, PNG_PARAMS)
     if not ok:
         raise RuntimeError("PNG encoding failed")

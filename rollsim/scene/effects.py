@@ -99,6 +99,60 @@ class Blooming(_Params):
     spill_fraction: float = Field(1.0, ge=0, le=1)
 
 
+class Blur(_Params):
+    """Lens blur: a Gaussian PSF on the LED's image and the background it hides.
+
+    ``sigma_px``: standard deviation in pixels. ``kernel``: ``separable``
+    (two 1-D passes) or ``full`` (one 2-D convolution); they agree to float
+    precision. ``truncate_sigma``: kernel radius in standard deviations; at
+    5 the mass cut off is 5.7e-7 per axis (the kernel is renormalised, so
+    light is conserved) and the kernel's variance is σ² to 2e-5.
+    See :mod:`rollsim.optics.psf`.
+    """
+
+    sigma_px: float = Field(1.0, gt=0, le=100)
+    kernel: Literal["separable", "full"] = "separable"
+    truncate_sigma: float = Field(5.0, ge=1, le=10)
+
+
+class Defocus(_Params):
+    """Thin-lens defocus: a disk PSF whose diameter is the circle of confusion
+    of the LED's distance for a lens focused at ``focus_distance_cm`` with
+    aperture f/N (``camera.f_number``). See :mod:`rollsim.optics.psf`."""
+
+    focus_distance_cm: float = Field(gt=0, le=1e5)
+
+    @property
+    def focus_distance_m(self) -> float:
+        return self.focus_distance_cm * 1e-2
+
+
+class Vignetting(_Params):
+    """Natural vignetting, cos⁴ of the field angle. ``optical_centre_px``:
+    ``[x, y]`` of the optical axis on the sensor; ``null`` = frame centre."""
+
+    optical_centre_px: Optional[list[float]] = Field(None, min_length=2, max_length=2)
+
+
+class Bayer(_Params):
+    """A Bayer colour filter array with spectral channel responses.
+
+    ``pattern``: the top-left 2×2 block. ``demosaic``: OpenCV's
+    ``bilinear``, ``edge_aware`` or ``vng`` (for ``camera.output: rgb8``).
+    ``sensitivities``: the camera spectral sensitivities shipped with
+    colour-science, scaled to a peak of ``camera.qe``. ``led_fwhm_nm``: full
+    width at half maximum of the LED's spectrum. ``spectral_step_nm``:
+    integration step, or ``peak`` to treat the LED as a line at its peak
+    wavelength. See :mod:`rollsim.optics.spectral`.
+    """
+
+    pattern: Literal["RGGB", "BGGR", "GRBG", "GBRG"] = "RGGB"
+    demosaic: Literal["bilinear", "edge_aware", "vng"] = "vng"
+    sensitivities: Literal["nikon_5100", "sigma_sdmerill"] = "nikon_5100"
+    led_fwhm_nm: float = Field(20.0, gt=0, le=300)
+    spectral_step_nm: Literal[1, 5, 10, "peak"] = 1
+
+
 class Effects(_Params):
     """Which effects a scene calls for (``None`` = not listed, not computed)."""
 
@@ -109,10 +163,10 @@ class Effects(_Params):
     prnu: Optional[NoParams] = None
     dsnu: Optional[NoParams] = None
     tone_curve: Optional[ToneCurve] = None
-    blur: Optional[NoParams] = None
-    defocus: Optional[NoParams] = None
-    bayer: Optional[NoParams] = None
-    vignetting: Optional[NoParams] = None
+    blur: Optional[Blur] = None
+    defocus: Optional[Defocus] = None
+    bayer: Optional[Bayer] = None
+    vignetting: Optional[Vignetting] = None
     led_rise_time: Optional[LedRiseTime] = None
     frame_jitter: Optional[FrameJitter] = None
     motion: Optional[Motion] = None

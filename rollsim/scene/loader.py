@@ -340,6 +340,12 @@ def consistency_errors(scene: Scene, source: str) -> list[str]:
         errors.append(f"{source}: channel: give both M and N, or neither (null derives both from the physics)")
     elif channel.M is not None and channel.M + channel.N < 1:
         errors.append(f"{source}: channel: M + N must be at least 1")
+    defocus = scene.effects.defocus
+    if defocus is not None and defocus.focus_distance_cm * 10.0 <= cam.focal_length_mm:
+        errors.append(
+            f"{source}: effects.defocus.focus_distance_cm = {_fmt_number(defocus.focus_distance_cm)}: the lens cannot "
+            f"focus nearer than its focal length ({_fmt_number(cam.focal_length_mm)} mm)"
+        )
     if cam.output == "rgb8" and scene.effects.bayer is None:
         errors.append(f"{source}: camera.output = 'rgb8': needs the bayer effect")
     errors += [f"{source}: {line}" for line in _temporal_effect_errors(scene)]
