@@ -25,6 +25,9 @@ undetected_error, then corrupted). A decode that matches no emission is a
 Rates in the summary:
 
 * ``error_rate``: 1 − ok / fully visible, among the fully visible emissions;
+* ``corrupted_rate``: corrupted / fully visible (``fully_visible_counts``
+  breaks the fully visible emissions down by outcome; a PHY-SDU only partly
+  visible may be decoded too, and then counts in ``counts`` only);
 * ``missed_rate``: missed / fully visible;
 * ``undetected_error_rate``: undetected errors / decodes whose check passed;
 * ``false_decodes_per_1000_frames``.
@@ -198,16 +201,21 @@ def summarise(outcomes: list[dict], false_decodes: list, n_frames: int) -> dict:
     counts = {name: 0 for name in OUTCOMES}
     for row in outcomes:
         counts[row["outcome"]] += 1
-    fully = sum(1 for row in outcomes if row["fully_visible"])
-    ok_fully = sum(1 for row in outcomes if row["fully_visible"] and row["outcome"] == "ok")
+    visible_counts = {name: 0 for name in OUTCOMES[:4]}
+    for row in outcomes:
+        if row["fully_visible"]:
+            visible_counts[row["outcome"]] += 1
+    fully = sum(visible_counts.values())
     passed = counts["ok"] + counts["undetected_error"]
     return {
         "frames": n_frames,
         "emissions": len(outcomes),
         "fully_visible": fully,
         "counts": counts,
+        "fully_visible_counts": visible_counts,
         "false_decodes": len(false_decodes),
-        "error_rate": (1.0 - ok_fully / fully) if fully else None,
+        "error_rate": (1.0 - visible_counts["ok"] / fully) if fully else None,
+        "corrupted_rate": (visible_counts["corrupted"] / fully) if fully else None,
         "missed_rate": (counts["missed"] / fully) if fully else None,
         "undetected_error_rate": (counts["undetected_error"] / passed) if passed else None,
         "false_decodes_per_1000_frames": (1000.0 * len(false_decodes) / n_frames) if n_frames else None,

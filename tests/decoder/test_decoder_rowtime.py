@@ -75,17 +75,19 @@ def test_spectral_period_of_a_sine():
 
 
 # Rendered square-pattern frames of four cameras (rollsim's renderer, default
-# effects: ambient light, shot and read noise), and a noisy one: ISO 20000, a
-# dim LED at the frame's top edge over a dim background (pixel noise about 16
-# DN against a stripe contrast of about 60 DN).
+# effects: ambient light, shot and read noise), and a noisy, unevenly bright
+# one: ISO 20000, a dim LED at the frame's top edge over a dim background
+# (pixel noise about 16 DN against a stripe contrast of about 60 DN), under
+# mains flicker (depth 0.5: slow bands) and cos^4 vignetting.
 RENDERED = {
     "nexus5": [],
     "galaxy_s3": [],
     "iphone4s": [],
     "iphone3gs": [],
-    "galaxy_s3_noisy": [
+    "galaxy_s3_noisy_uneven": [
         "camera.preset=galaxy_s3", "camera.iso=20000", "led.luminous_intensity_cd=0.003",
-        "environment.ambient_lux=30", "led.position_px=[1500, 300]",
+        "environment.ambient_lux=30", "led.position_px=[1500, 300]", "effects.flicker.depth=0.5",
+        "effects.vignetting=null", "effects.shot_noise.method=gaussian",
     ],
 }
 
