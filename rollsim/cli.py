@@ -481,6 +481,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--knobs", nargs="+", metavar="KNOB", default=None,
                    help="knobs to measure (default all: footprint_edge shot_noise read_noise blur_kernel "
                    "blur_truncation demosaic spectral_step led_rise_time)")
+    p.add_argument("--effects", nargs="*", metavar="EFFECT", default=None,
+                   help="effects whose own cost to measure (default all; the option alone: none)")
     p.add_argument("--out", metavar="DIR", default=None,
                    help="write accuracy.csv, effects_cost.csv, accuracy.json, accuracy.md and accuracy_pareto.png here")
     p.add_argument("--force", action="store_true", help="replace those files if present")

@@ -240,7 +240,8 @@ def test_effect_cost_reports_an_effect_it_cannot_measure():
 
 def test_cli_writes_every_output_and_refuses_to_overwrite(tmp_path, capsys):
     out = tmp_path / "results"
-    args = ["bench", "accuracy", "paper-default", "--frames", "2", "--knobs", "read_noise", "--quiet", "--out", str(out)]
+    args = ["bench", "accuracy", "paper-default", "--frames", "2", "--knobs", "read_noise", "--effects", "blur", "dsnu",
+            "--quiet", "--out", str(out)]
     for item in TINY:
         args += ["--set", item]
     assert main(args) == 0
@@ -249,7 +250,7 @@ def test_cli_writes_every_output_and_refuses_to_overwrite(tmp_path, capsys):
     result = _strict_json((out / "accuracy.json").read_text())
     assert result["command"].startswith("rollsim bench accuracy paper-default --frames 2 --set camera.width_px=320")
     assert result["machine"]["cpus"] >= 1 and [k["knob"] for k in result["knobs"]] == ["read_noise"]
-    assert len(result["effects_cost"]) == 16
+    assert [c["effect"] for c in result["effects_cost"]] == ["blur", "dsnu"]
     png = (out / "accuracy_pareto.png").read_bytes()
     assert png.startswith(b"\x89PNG") and b"Software" not in png and b"matplotlib" not in png
     assert main(args) == 2
@@ -257,9 +258,19 @@ def test_cli_writes_every_output_and_refuses_to_overwrite(tmp_path, capsys):
     assert main(args + ["--force"]) == 0
 
 
-def test_cli_names_an_unknown_knob(capsys):
+def test_cli_names_an_unknown_knob_or_effect(capsys):
     assert main(["bench", "accuracy", "paper-default", "--knobs", "no_such_knob"]) == 2
     assert "footprint_edge" in capsys.readouterr().err
+    assert main(["bench", "accuracy", "paper-default", "--effects", "glare"]) == 2
+    assert "vignetting" in capsys.readouterr().err
+
+
+def test_cli_effects_option_alone_measures_no_effect(tmp_path, capsys):
+    args = ["bench", "accuracy", "paper-default", "--frames", "1", "--knobs", "blur_kernel", "--effects", "--quiet"]
+    assert main(args + [f"--set={item}" for item in TINY] + ["--out", str(tmp_path)]) == 0
+    assert "added by each effect" not in capsys.readouterr().out
+    result = json.loads((tmp_path / "accuracy.json").read_text())
+    assert result["effects_cost"] == [] and " --effects --out " in result["command"]
 
 
 @pytest.mark.benchmark

@@ -523,10 +523,10 @@ def format_accuracy(result: dict) -> str:
         f"{result['frames']} frames per setting, one core; SSIM on frames {result['ssim_frames']}",
         format_table(table_rows(result), TABLE_HEADER),
         *flat_field_lines(result),
-        "",
-        "ms/frame added by each effect (with it minus without it, rendered in turn):",
-        format_table(cost_table_rows(result), COST_HEADER),
     ]
+    if result["effects_cost"]:
+        lines += ["", "ms/frame added by each effect (with it minus without it, rendered in turn):",
+                  format_table(cost_table_rows(result), COST_HEADER)]
     return "\n".join(lines)
 
 
@@ -537,8 +537,10 @@ def format_markdown(result: dict) -> str:
         lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
         return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
 
-    return "\n".join([*table(TABLE_HEADER, table_rows(result)), "", *[f"- {line}" for line in flat_field_lines(result)],
-                      "", *table(COST_HEADER, cost_table_rows(result))])
+    lines = [*table(TABLE_HEADER, table_rows(result)), "", *[f"- {line}" for line in flat_field_lines(result)]]
+    if result["effects_cost"]:
+        lines += ["", *table(COST_HEADER, cost_table_rows(result))]
+    return "\n".join(lines)
 
 
 def output_paths(out_dir: Path, force: bool) -> dict[str, Path]:
@@ -575,6 +577,8 @@ def command_line(args) -> str:
         words += ["--set", item]
     if args.knobs:
         words += ["--knobs", *args.knobs]
+    if args.effects is not None:
+        words += ["--effects", *args.effects]
     if args.out:
         words += ["--out", args.out]
     return shlex.join(words)
@@ -584,11 +588,16 @@ def main(args) -> int:
     from rollsim.bench.variants import knob_by_name
     from rollsim.scene import load_scene
 
+    from rollsim.scene.effects import EFFECT_NAMES
+
     knobs = [knob_by_name(name) for name in args.knobs] if args.knobs else list(KNOBS)
+    unknown = sorted(set(args.effects or ()) - set(EFFECT_NAMES))
+    if unknown:
+        raise RollsimError(f"unknown effect {', '.join(unknown)}; effects: {', '.join(EFFECT_NAMES)}")
     scene = load_scene(args.scene, args.overrides)
     paths = output_paths(Path(args.out), args.force) if args.out else None
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
-    result = bench_accuracy(scene, args.frames, knobs, progress=progress)
+    result = bench_accuracy(scene, args.frames, knobs, args.effects, progress=progress)
     result = {"command": command_line(args), **result}
     print(format_accuracy(result))
     if paths is not None:
