@@ -537,7 +537,15 @@ def format_markdown(result: dict) -> str:
         lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
         return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
 
-    lines = [*table(TABLE_HEADER, table_rows(result)), "", *[f"- {line}" for line in flat_field_lines(result)]]
+    lines = [
+        f"`{result.get('command', 'rollsim bench accuracy')}`: {result['scene']} at {result['resolution']} "
+        f"({result['output']}), {result['frames']} frames per setting, one core, {result['machine']['cpus']} CPUs; "
+        f"SSIM on frames {result['ssim_frames']}.",
+        "",
+        *table(TABLE_HEADER, table_rows(result)),
+        "",
+        *[f"- {line}" for line in flat_field_lines(result)],
+    ]
     if result["effects_cost"]:
         lines += ["", *table(COST_HEADER, cost_table_rows(result))]
     return "\n".join(lines)
