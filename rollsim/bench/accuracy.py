@@ -56,12 +56,12 @@ from rollsim.bench.variants import (
     knob_scenes,
 )
 from rollsim.errors import OutputError, RollsimError
+from rollsim.sensor.cfa import CFA_PATTERNS, cfa_channels
 
 SSIM_FRAMES = 4  # frames whose SSIM is computed, spread over the run
 FLAT_FIELD_FRAMES = 1  # frames per flat field (a 1080p frame holds 2 M samples)
 MAX_AMBIENT_LUX = 1e7  # the scene key's limit
 OUTPUT_FILES = ("accuracy.csv", "effects_cost.csv", "accuracy.json", "accuracy.md", "accuracy_pareto.png")
-CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
 
 
 def _timed_pipeline(scene):
@@ -100,8 +100,6 @@ def full_colour_image(mosaics: dict[str, np.ndarray]) -> np.ndarray:
     -------
     ndarray, shape (H, W, 3), the mosaics' dtype, RGB order
     """
-    from rollsim.sensor.cfa import cfa_channels
-
     shape = next(iter(mosaics.values())).shape
     out = np.zeros(shape + (3,), dtype=next(iter(mosaics.values())).dtype)
     filled = np.zeros(shape + (3,), dtype=bool)
