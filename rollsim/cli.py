@@ -362,6 +362,12 @@ def _bench_stress_main(args) -> int:
     return bench_main(args)
 
 
+def _bench_accuracy_main(args) -> int:
+    from rollsim.bench.accuracy import main as bench_main
+
+    return bench_main(args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rollsim",
@@ -465,6 +471,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown")
     p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
     p.set_defaults(func=cmd_bench, bench_main=_bench_stress_main)
+    p = bench_sub.add_parser(
+        "accuracy",
+        help="what accuracy costs: each fidelity setting against the most accurate one, in time, image error, "
+        "noise distribution, decode outcomes and the MMBP fit; and each effect's cost",
+    )
+    p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
+    p.add_argument("--frames", type=_positive_int, default=30, help="frames per setting (default 30)")
+    p.add_argument("--knobs", nargs="+", metavar="KNOB", default=None,
+                   help="knobs to measure (default all: footprint_edge shot_noise read_noise blur_kernel "
+                   "blur_truncation demosaic spectral_step led_rise_time)")
+    p.add_argument("--effects", nargs="*", metavar="EFFECT", default=None,
+                   help="effects whose own cost to measure (default all; the option alone: none)")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help="write accuracy.csv, effects_cost.csv, accuracy.json, accuracy.md and accuracy_pareto.png here")
+    p.add_argument("--force", action="store_true", help="replace those files if present")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    _add_set_option(p)
+    p.set_defaults(func=cmd_bench, bench_main=_bench_accuracy_main)
 
     p = sub.add_parser("simulate", help="broadcast the scene's message over a channel model (CamComSim's job)")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")

@@ -61,7 +61,18 @@ def atomic_output_dir(out_dir: Path, force: bool = False):
 
 
 def write_text_atomic(path: Path, text: str, force: bool = True) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename.
+    """Write ``text`` (UTF-8) to ``path`` through a temporary file and a rename.
+
+    Raises
+    ------
+    OutputError
+        If ``path`` exists and ``force`` is false, or cannot be written.
+    """
+    write_bytes_atomic(path, text.encode("utf-8"), force)
+
+
+def write_bytes_atomic(path: Path, data: bytes, force: bool = True) -> None:
+    """Write ``data`` to ``path`` through a temporary file and a rename.
 
     Raises
     ------
@@ -73,7 +84,7 @@ def write_text_atomic(path: Path, text: str, force: bool = True) -> None:
         raise OutputError(f"{path}: exists; use --force to replace it")
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
-        tmp.write_text(text, encoding="utf-8")
+        tmp.write_bytes(data)
         os.replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)

@@ -8,11 +8,11 @@ parallel. The table it prints (``--markdown``) is the README's stress table.
 from __future__ import annotations
 
 import json
-import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from rollsim.bench.common import format_table, machine
+from rollsim.bench.outcomes import DecodedRun
 from rollsim.scene import bundled_scene_paths, load_scene, read_yaml
 
 # The scenes of the table by default: the paper's, the stress set and one
@@ -34,27 +34,14 @@ def scene_outcomes(scene, n_frames: int) -> dict:
         The evaluation summary (:func:`rollsim.evaluate.summarise`) plus
         ``render_ms_per_frame`` and ``decode_ms_per_frame`` (one core).
     """
-    from decoder import decode_frame
-    from rollsim.evaluate import evaluate
     from rollsim.render import RenderPipeline
-    from rollsim.transmitter import phy_from_scene
 
-    pipeline = RenderPipeline(scene)
-    phy = phy_from_scene(scene)
-    truth, decoded = [], []
-    render_s = decode_s = 0.0
+    run = DecodedRun(RenderPipeline(scene))
     for index in range(n_frames):
-        start = time.perf_counter()
-        frame = pipeline.render(index)
-        middle = time.perf_counter()
-        found = decode_frame(frame.image, phy, scene.link.clock_hz, scene.camera.row_time_s, index)
-        decode_s += time.perf_counter() - middle
-        render_s += middle - start
-        truth.append(frame.truth)
-        decoded.extend(sdu.to_record() for sdu in found)
-    summary = evaluate(truth, decoded, pipeline.setup.transmitter).summary
-    summary["render_ms_per_frame"] = 1e3 * render_s / max(1, n_frames)
-    summary["decode_ms_per_frame"] = 1e3 * decode_s / max(1, n_frames)
+        run.step(index)
+    summary = run.evaluation().summary
+    summary["render_ms_per_frame"] = 1e3 * sum(run.render_s) / max(1, n_frames)
+    summary["decode_ms_per_frame"] = 1e3 * sum(run.decode_s) / max(1, n_frames)
     return summary
 
 

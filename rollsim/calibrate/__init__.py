@@ -29,7 +29,16 @@ from rollsim.errors import RollsimError
 RUN_LENGTH_BINS = 12
 
 
-def _fit_mmbp(trace: Trace, scene) -> MmbpFit:
+def fit_mmbp(trace: Trace) -> MmbpFit:
+    """The MMBP fit of a trace: aligned to its frames when it carries them and
+    its scene, else by the best cycle.
+
+    Raises
+    ------
+    ValueError
+        For a trace the model cannot be fitted to (empty, no success).
+    """
+    scene = trace.scene
     if scene is not None and trace.start_s is not None and trace.frame_starts_s is not None and trace.frame_starts_s.size:
         from rollsim.channel.scene_channel import sdu_duration_from_scene
 
@@ -115,7 +124,7 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
     success = np.asarray(trace.success, dtype=bool)
     scene = trace.scene
     try:
-        mmbp = _fit_mmbp(trace, scene)
+        mmbp = fit_mmbp(trace)
         ge = fit_ge(success)
         ge_moments = ge_method_of_moments(success) if success.size >= 3 else None
     except ValueError as exc:
@@ -158,6 +167,7 @@ __all__ = [
     "calibrate",
     "clopper_pearson",
     "fit_ge",
+    "fit_mmbp",
     "fit_mmbp_aligned",
     "fit_mmbp_cycle",
     "format_calibration",

@@ -178,3 +178,90 @@ def plot_goodput(calibration: dict, path: Path) -> Path:
     ax.set_title("RP goodput: predicted against measured", fontsize=10)
     ax.legend(fontsize=8)
     return _save(fig, path)
+
+
+def _plain_log_axis(axis) -> None:
+    """Log ticks at 1, 2, 5 × 10^k labelled as plain numbers."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(lambda value, _: f"{value:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def _pareto_panel(ax, knobs: list[dict], value, ylabel: str, title: str, floors=None) -> None:
+    """Time per frame against ``value(row)`` for each setting of ``knobs``.
+
+    Zero values sit on a dotted floor line, hollow; ``floors`` (one value or
+    None per knob) draws a dashed line per knob, e.g. a statistic's noise floor.
+    """
+    from matplotlib import colormaps
+
+    points = [(i, row, value(row)) for i, knob in enumerate(knobs) for row in knob["settings"]]
+    points = [(i, row, y) for i, row, y in points if y is not None]
+    if not points:
+        ax.text(0.5, 0.5, "no knob of this kind measured", ha="center", va="center", transform=ax.transAxes)
+        ax.set_axis_off()
+        return
+    positive = [y for _, _, y in points if y > 0] + [f for f in (floors or []) if f]
+    zero_line = min(positive) / 10.0 if positive else 1e-3
+    colours = colormaps["tab10"]
+    for i, knob in enumerate(knobs):
+        colour = colours(i % 10)
+        for j, row, y in points:
+            if j != i:
+                continue
+            on_floor = y <= 0
+            y = zero_line if on_floor else y
+            ax.scatter(row["ms_per_frame"], y, s=150 if row["reference"] else 40, marker="*" if row["reference"] else "o",
+                       facecolors="none" if on_floor and not row["reference"] else colour,
+                       edgecolors="black" if row["reference"] else colour, linewidths=1.0, zorder=3)
+            ax.annotate(row["setting"], (row["ms_per_frame"], y), xytext=(4, 3), textcoords="offset points",
+                        fontsize=7, color=colour)
+        ax.scatter([], [], color=colour, s=40, label=knob["knob"])
+        if floors and floors[i]:
+            ax.axhline(floors[i], color=colour, linestyle="--", linewidth=0.8)
+    ax.axhline(zero_line, color="#999999", linestyle=":", linewidth=0.8)
+    ax.text(0.01, zero_line, " 0: same as the reference", transform=ax.get_yaxis_transform(), fontsize=7,
+            va="bottom", color="#666666")
+    ax.scatter([], [], marker="*", s=150, color="white", edgecolors="black", label="reference")
+    if floors:
+        ax.plot([], [], color="#666666", linestyle="--", linewidth=0.8, label="noise floor (another seed)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    _plain_log_axis(ax.xaxis)
+    ax.set_xlabel("render time per frame (ms, one core)")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7, loc="best")
+    ax.grid(True, which="both", alpha=0.3)
+
+
+def _first(values):
+    return values[0] if values else None
+
+
+def plot_accuracy_pareto(knobs: list[dict], target):
+    """What accuracy costs (``rollsim bench accuracy``): time against error, one marker per setting.
+
+    Left, the knobs that change the noiseless image: RMS error in DN against
+    the reference (demosaicing: against the full-colour image). Right, the
+    noise methods: Kolmogorov-Smirnov distance of flat fields at the lowest
+    signal, with the distance two seeds of the reference give. Colour per
+    knob, the reference a star; settings with no error sit on the dotted line.
+
+    Parameters
+    ----------
+    knobs : list of dict
+        ``knobs`` of :func:`rollsim.bench.accuracy.bench_accuracy`.
+    target : path or binary file
+    """
+    fig, axes = _figure(13.0, 5.5, cols=2)
+    image = [k for k in knobs if not k["noise"]]
+    noise = [k for k in knobs if k["noise"]]
+    _pareto_panel(axes[0, 0], image, lambda row: row["rms_dn"], "RMS error of the noiseless image (DN)",
+                  "image: error against the reference")
+    _pareto_panel(axes[0, 1], noise, lambda row: _first(row["ks_distance"]),
+                  "Kolmogorov-Smirnov distance, flat field at the lowest signal", "noise: distribution distance",
+                  floors=[_first(k["flat_field"]["floor"]) for k in noise])
+    return _save(fig, target)

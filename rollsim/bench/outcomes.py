@@ -1,0 +1,89 @@
+"""Render, decode and evaluate frames in memory: the loop the benchmarks share.
+
+:class:`DecodedRun` renders a pipeline's frames one at a time, decodes each
+and keeps only the truth records and decoded records (constant memory in the
+images); :meth:`DecodedRun.evaluation` then gives every emitted PHY-SDU its
+outcome. ``rollsim bench stress`` runs one scene through it; ``rollsim bench
+accuracy`` runs several fidelity settings side by side, a frame at a time.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+
+class DecodedRun:
+    """Frames of one pipeline, rendered and decoded as they are stepped through.
+
+    Parameters
+    ----------
+    pipeline : RenderPipeline
+
+    Attributes
+    ----------
+    truth : list of dict
+        One truth record per frame stepped.
+    decoded : list of dict
+        Every decoded record (:meth:`decoder.DecodedPhySdu.to_record`).
+    render_s, decode_s : list of float
+        Seconds of ``pipeline.render`` and of the decoder, per frame.
+    """
+
+    def __init__(self, pipeline):
+        from rollsim.transmitter import phy_from_scene
+
+        self.pipeline = pipeline
+        scene = pipeline.setup.scene
+        self._phy = phy_from_scene(scene)
+        self._clock_hz = scene.link.clock_hz
+        self._row_time_s = scene.camera.row_time_s
+        self.truth: list[dict] = []
+        self.decoded: list[dict] = []
+        self.render_s: list[float] = []
+        self.decode_s: list[float] = []
+
+    def step(self, index: int):
+        """Render frame ``index``, time it, decode it; returns the rendered frame."""
+        from decoder import decode_frame
+
+        start = time.perf_counter()
+        frame = self.pipeline.render(index)
+        middle = time.perf_counter()
+        found = decode_frame(frame.image, self._phy, self._clock_hz, self._row_time_s, index)
+        self.decode_s.append(time.perf_counter() - middle)
+        self.render_s.append(middle - start)
+        self.truth.append(frame.truth)
+        self.decoded.extend(sdu.to_record() for sdu in found)
+        return frame
+
+    def evaluation(self):
+        """The outcome of every emission of the frames stepped (:func:`rollsim.evaluate.evaluate`)."""
+        from rollsim.evaluate import evaluate
+
+        return evaluate(self.truth, self.decoded, self.pipeline.setup.transmitter)
+
+
+def fitted_mmbp(evaluation, truth: list[dict], scene) -> dict | None:
+    """The MMBP fit of an evaluation's outcomes, as :func:`rollsim.calibrate.calibrate` gives it.
+
+    Returns
+    -------
+    dict or None
+        ``M``, ``N``, ``p_e``, ... (:meth:`MmbpFit.as_dict`), or None when
+        the model cannot be fitted (no emission, or none succeeded).
+    """
+    from rollsim.calibrate import Trace, fit_mmbp
+
+    outcomes = evaluation.outcomes
+    trace = Trace(
+        np.array([o["success"] for o in outcomes], dtype=bool),
+        np.array([o["start_s"] for o in outcomes], dtype=np.float64),
+        np.array([t["start_s"] for t in truth], dtype=np.float64),
+        scene,
+    )
+    try:
+        return fit_mmbp(trace).as_dict()
+    except ValueError:
+        return None
