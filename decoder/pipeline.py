@@ -18,7 +18,7 @@ import numpy as np
 
 from rollsim.protocol import PhyFormat, max_run_length
 
-from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span, envelopes, smooth_profile
+from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
 from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.profile import RowProfile, row_profile
@@ -180,11 +180,19 @@ def decode_profile(
     list of DecodedPhySdu
         In row order.
     """
+    options = {"frame_index": frame_index, "region": region, "include_failed": include_failed,
+               "include_truncated": include_truncated, "min_contrast": min_contrast}
+    return _decode_profile_levels(profile, phy, rows_per_chip, **options)[0]
+
+
+def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, include_failed, include_truncated,
+                           min_contrast) -> tuple[list[DecodedPhySdu], Binarized | None]:
+    """:func:`decode_profile`, and the levels it binarised (None when it found no chip pitch)."""
     if len(profile) < phy.sdu_chips:
-        return []
+        return [], None
     pitch = rows_per_chip if rows_per_chip is not None else coarse_rows_per_chip(profile, min_contrast)
     if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
-        return []
+        return [], None
     levels = binarize_profile(
         profile.values,
         profile.noise,
@@ -199,7 +207,7 @@ def decode_profile(
     runs = merge_glitches(correct_edge_bias(runs, edge_bias_chips(runs, pitch), pitch), pitch)
     edges = led_edges(runs, levels, pitch)
     if edges is None:
-        return []
+        return [], levels
     cut_left, cut_right, span = edges
     chips = runs_to_chips(runs, pitch, levels.q, cut_left, cut_right)
     found = decode_chip_stream(chips, phy, span)
@@ -208,7 +216,7 @@ def decode_profile(
         keep &= found.check_ok
     offset = float(profile.first_row)
     payload_bits = ["".join("1" if b else "0" for b in row) for row in found.payload[keep].tolist()]
-    return [
+    sdus = [
         DecodedPhySdu(
             frame=int(frame_index),
             first_row_f=offset + float(first),
@@ -229,6 +237,7 @@ def decode_profile(
             found.confidence[keep].tolist(),
         )
     ]
+    return sdus, levels
 
 
 def decode_frame(
@@ -291,7 +300,7 @@ def decode_frame(
 def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int):
     """Yield ``(frame columns, row profile, nominal rows per chip or None)`` per LED region."""
     frame = as_frame_array(image)
-    pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz and row_time_s else None
+    pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz is not None and row_time_s is not None else None
     blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
     for region in detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions):
         yield blocks.block_col_span(region.block_cols), row_profile(blocks, region), pitch
@@ -334,17 +343,13 @@ def inspect_frame(
     Same parameters as :func:`decode_frame`; the PHY-SDUs are those it
     returns (failed ones included, truncated ones not).
     """
+    options = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
+               "min_contrast": MIN_CONTRAST_SIGMA}
     views = []
     for index, (cols, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
-        sdus = decode_profile(profile, phy, pitch, frame_index=frame_index, region=index)
-        rows_per_chip = pitch if pitch is not None else coarse_rows_per_chip(profile)
-        threshold = None
-        if rows_per_chip is not None and rows_per_chip >= MIN_ROWS_PER_CHIP:
-            values = smooth_profile(profile.values, smoothing_rows(profile, rows_per_chip))
-            upper, lower = envelopes(values, envelope_window_rows(phy, rows_per_chip))
-            threshold = 0.5 * (upper + lower)
+        sdus, levels = _decode_profile_levels(profile, phy, pitch, region=index, **options)
         rows = slice(profile.first_row, profile.first_row + len(profile))
-        views.append(RegionView(rows, cols, profile, threshold, tuple(sdus)))
+        views.append(RegionView(rows, cols, profile, None if levels is None else levels.threshold, tuple(sdus)))
     return views
 
 

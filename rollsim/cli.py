@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Optional, Sequence
@@ -107,8 +108,9 @@ def cmd_render(args) -> int:
 def _decode_settings(args, run_dir: Path):
     """Decode settings: --scene, else the render's scene.resolved.yaml, else
     the default link (--set overrides) with --clock-hz / --row-time-us."""
-    from rollsim.decode import settings_from_scene
+    from rollsim.decode import DecodeSettings, settings_from_scene
     from rollsim.scene import load_scene, scene_from_dict
+    from rollsim.transmitter import phy_from_scene
 
     resolved = run_dir / "scene.resolved.yaml"
     if args.scene is not None:
@@ -119,9 +121,9 @@ def _decode_settings(args, run_dir: Path):
         if args.clock_hz is None:
             raise RollsimError(f"{run_dir}: no scene.resolved.yaml; give --scene FILE or --clock-hz F [--row-time-us T]")
         scene = scene_from_dict({}, "<default link>", args.overrides)
-        settings = settings_from_scene(scene, args.clock_hz, args.row_time_us)
         # Without a row time the decoder estimates the chip pitch itself.
-        return settings if args.row_time_us is not None else type(settings)(settings.phy, settings.clock_hz, None)
+        row_time_s = None if args.row_time_us is None else args.row_time_us * 1e-6
+        return DecodeSettings(phy_from_scene(scene), args.clock_hz, row_time_s)
     return settings_from_scene(scene, args.clock_hz, args.row_time_us)
 
 
@@ -172,8 +174,8 @@ def cmd_estimate_row_time(args) -> int:
     """Row time of a camera from frames of an LED sending the square pattern."""
     from decoder import FrameReadError, RowTimeError, estimate_row_time, read_frame
 
-    if not args.clock_hz > 0:
-        raise RollsimError(f"--clock-hz = {args.clock_hz}: must be > 0")
+    if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
+        raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
     skipped = []
 
     def readable_frames():
@@ -191,7 +193,7 @@ def cmd_estimate_row_time(args) -> int:
     result = {"row_time_us": row_time_s * 1e6, "uncertainty_us": sigma_s * 1e6, "clock_hz": args.clock_hz,
               "frames_unreadable": len(skipped)}
     if args.json:
-        _write_text(args.json, json.dumps(result, indent=2) + "\n")
+        _write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")
     print(f"row time {row_time_s * 1e6:.4f} us +- {sigma_s * 1e6:.4f} us (1 sigma), {len(skipped)} frames unreadable")
     return EXIT_OK
 

@@ -20,12 +20,14 @@ depend on the number of workers.
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator, Optional
 
-from rollsim.errors import OutputError, RollsimError
+from rollsim.errors import RollsimError
+from rollsim.outdir import atomic_file, refuse_existing, write_text_atomic
 from rollsim.parallel import chunked, ordered_chunk_map
 from rollsim.protocol import PhyFormat
 from rollsim.transmitter import phy_from_scene
@@ -53,6 +55,11 @@ class DecodeSettings:
     phy: PhyFormat
     clock_hz: Optional[float] = None
     row_time_s: Optional[float] = None
+
+    def __post_init__(self):
+        for name, value in (("clock_hz", self.clock_hz), ("row_time_s", self.row_time_s)):
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise RollsimError(f"{name} = {value}: must be a finite number > 0")
 
     def as_dict(self) -> dict:
         return {"phy": asdict(self.phy), "clock_hz": self.clock_hz, "row_time_s": self.row_time_s}
@@ -115,11 +122,13 @@ def frame_files(directory: Path) -> list[Path]:
     return files
 
 
-def _decode_chunk(paths: list[str], settings: DecodeSettings) -> list[tuple[int, list[dict], Optional[dict]]]:
+def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings) -> list[tuple[int, list[dict], Optional[dict]]]:
     from decoder import decode_frames
 
+    first = chunk[0][0]
     out = []
-    for result in decode_frames(paths, settings.phy, settings.clock_hz, settings.row_time_s):
+    for result in decode_frames([path for _, path in chunk], settings.phy, settings.clock_hz, settings.row_time_s,
+                                first_frame=first):
         out.append((result.frame, result.to_records(), result.error_record()))
     return out
 
@@ -127,11 +136,22 @@ def _decode_chunk(paths: list[str], settings: DecodeSettings) -> list[tuple[int,
 def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1) -> Iterator[tuple[int, list[dict], Optional[dict]]]:
     """Decode frame files; yield ``(frame, records, error)`` in file order.
 
+    A file's frame index is the last number in its name, else its position.
     ``error`` is None for a frame that was read, else a record naming the
     file and what is wrong with it.
     """
-    chunks = chunked([os.fspath(p) for p in paths], CHUNK_FRAMES)
+    chunks = chunked(list(enumerate(os.fspath(p) for p in paths)), CHUNK_FRAMES)
     yield from ordered_chunk_map(_decode_chunk, chunks, workers, settings)
+
+
+def _relative_error(error: dict, run_dir: Path) -> dict:
+    """An error record naming its file relative to the run directory."""
+    source = error["source"]
+    try:
+        relative = str(Path(source).relative_to(run_dir))
+    except ValueError:
+        return error
+    return {**error, "source": relative, "error": error["error"].replace(source, relative, 1)}
 
 
 def decode_directory(
@@ -165,32 +185,20 @@ def decode_directory(
     """
     run_dir = Path(run_dir)
     files = frame_files(run_dir)
-    targets = [run_dir / DECODED_NAME, run_dir / SUMMARY_NAME]
-    if not force:
-        for target in targets:
-            if target.exists():
-                raise OutputError(f"{target}: exists; use --force to replace it")
+    refuse_existing([run_dir / DECODED_NAME, run_dir / SUMMARY_NAME], force)
     summary = DecodeSummary(settings, frames=len(files))
-    temporary = [t.with_name(f".{t.name}.tmp-{os.getpid()}") for t in targets]
-    try:
-        with open(temporary[0], "w", encoding="utf-8") as out:
-            for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers), start=1):
-                for record in records:
-                    out.write(json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n")
-                summary.sdus += len(records)
-                summary.sdus_ok += sum(1 for r in records if r["check_ok"])
-                if error is not None:
-                    summary.unreadable.append(error)
-                    if on_error is not None:
-                        on_error(error)
-                if progress is not None:
-                    progress(done)
-        temporary[1].write_text(json.dumps(summary.as_dict(), indent=2) + "\n", encoding="utf-8")
-        for tmp, target in zip(temporary, targets):
-            os.replace(tmp, target)
-    except OSError as exc:
-        raise OutputError(f"{run_dir}: cannot write the decode results ({exc.strerror or exc})") from None
-    finally:
-        for tmp in temporary:
-            tmp.unlink(missing_ok=True)
+    with atomic_file(run_dir / DECODED_NAME) as out:
+        for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers), start=1):
+            for record in records:
+                out.write(json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n")
+            summary.sdus += len(records)
+            summary.sdus_ok += sum(1 for r in records if r["check_ok"])
+            if error is not None:
+                error = _relative_error(error, run_dir)
+                summary.unreadable.append(error)
+                if on_error is not None:
+                    on_error(error)
+            if progress is not None:
+                progress(done)
+    write_text_atomic(run_dir / SUMMARY_NAME, json.dumps(summary.as_dict(), indent=2, allow_nan=False) + "\n")
     return summary

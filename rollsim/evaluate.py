@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -241,7 +242,7 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
         A missing or malformed input file (named), or an existing output
         without ``force``.
     """
-    from rollsim.outdir import write_text_atomic
+    from rollsim.outdir import refuse_existing, write_text_atomic
     from rollsim.scene import load_scene
     from rollsim.transmitter import transmitter_from_scene
 
@@ -255,15 +256,16 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
     if not decoded_file.exists():
         raise RollsimError(f"{decoded_file}: not found; run `rollsim decode {run_dir}` first")
     targets = (run_dir / "outcomes.csv", run_dir / "evaluation.json")
-    for target in targets:
-        if target.exists() and not force:
-            raise RollsimError(f"{target}: exists; use --force to replace it")
-    truth = read_jsonl(run_dir / "truth.jsonl")
+    refuse_existing(targets, force)
+    truth_file = run_dir / "truth.jsonl"
+    truth = read_jsonl(truth_file)
+    check_records(truth, truth_file, TRUTH_FIELDS)
+    for record in truth:
+        check_records(record["sdus"], truth_file, TRUTH_SDU_FIELDS, f"frame {record['frame']}: PHY-SDU")
     decoded = read_jsonl(decoded_file)
-    _check_decoded(decoded, decoded_file)
+    check_records(decoded, decoded_file, DECODED_FIELDS)
     result = evaluate(truth, decoded, transmitter_from_scene(load_scene(scene_file)))
-    decode_info = run_dir / "decode.json"
-    unreadable = json.loads(decode_info.read_text(encoding="utf-8")).get("unreadable", []) if decode_info.exists() else []
+    unreadable = _unreadable_frames(run_dir / "decode.json")
     result.summary["frames_unreadable"] = len(unreadable)
     report = {"summary": result.summary, "false_decodes": result.false_decodes, "unreadable": unreadable}
     write_text_atomic(targets[0], outcomes_csv(result.outcomes))
@@ -271,15 +273,47 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
     return result
 
 
-DECODED_FIELDS = ("frame", "first_row", "last_row", "sequence", "bits", "check_ok")
+# Fields matching needs, with their JSON types ("number": finite int or float).
+DECODED_FIELDS = {"frame": "int", "first_row": "number", "last_row": "number", "sequence": "int", "bits": "str",
+                  "check_ok": "bool"}
+TRUTH_FIELDS = {"frame": "int", "start_s": "number", "sdus": "list"}
+TRUTH_SDU_FIELDS = {"tx": "int", "sequence": "int", "bits": "str", "first_row_f": "number", "last_row_f": "number",
+                    "fully_visible": "bool"}
 
 
-def _check_decoded(records: list[dict], path: Path) -> None:
-    """One-line error for a decoded record without the fields matching needs."""
+def _has_type(value, kind: str) -> bool:
+    if kind == "number":
+        return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if kind == "int":
+        return isinstance(value, int) and not isinstance(value, bool)
+    return isinstance(value, {"str": str, "bool": bool, "list": list}[kind])
+
+
+def check_records(records: list, path: Path, fields: dict, what: str = "record") -> None:
+    """One-line error naming the file, the record and the field, for records
+    that lack a field evaluation needs or hold a value of the wrong type."""
     for number, record in enumerate(records, start=1):
-        missing = [name for name in DECODED_FIELDS if name not in record] if isinstance(record, dict) else list(DECODED_FIELDS)
-        if missing:
-            raise RollsimError(f"{path}: record {number}: missing {', '.join(missing)}")
+        if not isinstance(record, dict):
+            raise RollsimError(f"{path}: {what} {number}: not a JSON object")
+        for name, kind in fields.items():
+            if name not in record:
+                raise RollsimError(f"{path}: {what} {number}: missing {name}")
+            if not _has_type(record[name], kind):
+                raise RollsimError(f"{path}: {what} {number}: {name} = {record[name]!r}: expected {kind}")
+
+
+def _unreadable_frames(path: Path) -> list:
+    """The unreadable frames listed by ``decode.json`` (none if it is absent)."""
+    if not path.exists():
+        return []
+    try:
+        info = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise RollsimError(f"{path}: cannot read as JSON ({exc})") from None
+    unreadable = info.get("unreadable", []) if isinstance(info, dict) else None
+    if not isinstance(unreadable, list):
+        raise RollsimError(f"{path}: unreadable: expected a list of frames")
+    return unreadable
 
 
 def outcomes_csv(outcomes: list[dict]) -> str:
@@ -296,9 +330,7 @@ def outcomes_csv(outcomes: list[dict]) -> str:
 
 def format_summary(summary: dict) -> str:
     """A short table of an evaluation summary."""
-
-    def rate(value):
-        return "n/a" if value is None else f"{100 * value:.3f} %"
+    from rollsim.tables import format_percent
 
     unreadable = summary.get("frames_unreadable")
     lines = [
@@ -308,9 +340,9 @@ def format_summary(summary: dict) -> str:
     lines += [f"  {name:<17} {count}" for name, count in summary["counts"].items()]
     lines += [
         f"  {'false decodes':<17} {summary['false_decodes']}",
-        f"error rate (fully visible)      {rate(summary['error_rate'])}",
-        f"missed rate (fully visible)     {rate(summary['missed_rate'])}",
-        f"undetected-error rate (passed)  {rate(summary['undetected_error_rate'])}",
+        f"error rate (fully visible)      {format_percent(summary['error_rate'])}",
+        f"missed rate (fully visible)     {format_percent(summary['missed_rate'])}",
+        f"undetected-error rate (passed)  {format_percent(summary['undetected_error_rate'])}",
         "false decodes per 1000 frames   "
         + ("n/a" if summary["false_decodes_per_1000_frames"] is None else f"{summary['false_decodes_per_1000_frames']:.2f}"),
     ]

@@ -79,13 +79,39 @@ def write_bytes_atomic(path: Path, data: bytes, force: bool = True) -> None:
     OutputError
         If ``path`` exists and ``force`` is false, or cannot be written.
     """
+    with atomic_file(path, "wb", force) as handle:
+        handle.write(data)
+
+
+def refuse_existing(paths, force: bool) -> None:
+    """One error naming every path of ``paths`` that exists, unless ``force``.
+
+    Called before any work, so that a refused run costs nothing.
+    """
+    present = [str(p) for p in paths if Path(p).exists()]
+    if present and not force:
+        raise OutputError(f"{', '.join(present)}: exists; use --force to replace it")
+
+
+@contextlib.contextmanager
+def atomic_file(path: Path, mode: str = "w", force: bool = True):
+    """Yield an open temporary file that replaces ``path`` when the block ends.
+
+    On an exception the temporary file is removed and ``path`` is untouched.
+
+    Raises
+    ------
+    OutputError
+        If ``path`` exists and ``force`` is false, or cannot be written.
+    """
     path = Path(path)
-    if path.exists() and not force:
-        raise OutputError(f"{path}: exists; use --force to replace it")
+    refuse_existing([path], force)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     try:
-        tmp.write_bytes(data)
+        with open(tmp, mode, **({} if "b" in mode else {"encoding": "utf-8"})) as handle:
+            yield handle
         os.replace(tmp, path)
     except OSError as exc:
+        raise OutputError(f"{path}: cannot write ({exc.strerror or exc})") from None
+    finally:
         tmp.unlink(missing_ok=True)
-        raise OutputError(f"{path}: cannot write ({exc.strerror})") from None

@@ -61,11 +61,13 @@ class _StageClock:
         if self._on_stage is not None:
             self._on_stage(stage, "start")
         start = time.perf_counter()
-        result = work()
-        self.timings[stage] = time.perf_counter() - start
-        if self._on_stage is not None:
-            self._on_stage(stage, "done")
-        return result
+        try:
+            return work()
+        finally:
+            # A stage that fails (calibration of a dark scene) is timed too.
+            self.timings[stage] = time.perf_counter() - start
+            if self._on_stage is not None:
+                self._on_stage(stage, "done")
 
 
 def run_scene(
@@ -131,15 +133,14 @@ def run_scene(
                                                      progress=progress("decode")))
         evaluation = clock.run("evaluate", lambda: evaluate_directory(partial))
         try:
-            calibration = clock.run("calibrate", lambda: calibrate(load_trace(partial)))
+            calibration = clock.run("calibrate", lambda: calibrate(load_trace(partial, source=str(out_dir))))
         except RollsimError as exc:
             # Nothing decoded (a dark or undecodable scene) is a finding, not
-            # bad input: the run still reports what the decoder saw.
+            # bad input: the run still reports what the decoder saw. A file's
+            # error names the temporary directory: name the run's.
             calibration, reason = None, str(exc).replace(str(partial), str(out_dir))
         else:
             reason = None
-            # The trace's source is the temporary directory; name the run's.
-            calibration["source"] = str(out_dir)
             write_text_atomic(partial / "calibration.json", json.dumps(calibration, indent=2, allow_nan=False) + "\n")
-        clock.run("report", lambda: write_report(partial, scene, evaluation.summary, calibration, clock.timings, reason))
+        clock.run("report", lambda: write_report(partial, scene, evaluation, calibration, clock.timings, reason))
     return RunSummary(Path(out_dir), n_frames, evaluation.summary, calibration, clock.timings, reason)

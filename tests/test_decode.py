@@ -167,3 +167,53 @@ def test_decode_settings_follow_the_scene():
     settings = settings_from_scene(scene, row_time_us=30.0)
     assert settings.clock_hz == 8000.0 and settings.row_time_s == pytest.approx(30e-6, rel=1e-12)
     assert settings.phy.check == "crc8" and settings.phy.payload_bits == 19
+
+
+@pytest.mark.parametrize("args, field", [(["--clock-hz", "-5"], "clock_hz"), (["--clock-hz", "nan"], "clock_hz"),
+                                         (["--clock-hz", "inf"], "clock_hz"), (["--row-time-us", "0"], "row_time_s")])
+def test_impossible_decode_settings_are_one_line(rendered, tmp_path, capsys, args, field):
+    run = copy_run(rendered, tmp_path)
+    assert main(["decode", str(run), "--quiet", *args]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and field in err[0]
+    assert not (run / "decoded.jsonl").exists()
+
+
+def test_frames_without_numbers_are_indexed_in_order_across_chunks(rendered, tmp_path):
+    folder = tmp_path / "named"
+    folder.mkdir()
+    for index, path in enumerate(frame_files(rendered)):  # 8 frames: fa.png ... fh.png
+        (folder / f"f{'abcdefgh'[index]}.png").write_bytes(path.read_bytes())
+    (folder / "fi.png").write_bytes(frame_files(rendered)[0].read_bytes())
+    scene = load_scene(rendered / "scene.resolved.yaml")
+    decode_directory(folder, settings_from_scene(scene), workers=2)
+    frames = [r["frame"] for r in read_jsonl(folder / "decoded.jsonl")]
+    assert frames == sorted(frames) and frames[-1] == 8
+
+
+def test_unreadable_frames_are_named_relative_to_the_run(rendered, tmp_path):
+    run = copy_run(rendered, tmp_path)
+    frame_files(run)[1].write_bytes(b"junk")
+    decode_directory(run, settings_from_scene(load_scene(run / "scene.resolved.yaml")))
+    [error] = json.loads((run / "decode.json").read_text())["unreadable"]
+    assert error["source"] == "frames/frame_000001.png" and error["error"].startswith("frames/frame_000001.png: ")
+
+
+@pytest.mark.parametrize(
+    "target, content, message",
+    [
+        ("decode.json", "{not json", "decode.json: cannot read as JSON"),
+        ("truth.jsonl", '{"frame": 0, "start_s": 0.0}\n', "truth.jsonl: record 1: missing sdus"),
+        ("decoded.jsonl", '{"frame": "x", "first_row": 1, "last_row": 2, "sequence": 0, "bits": "1", "check_ok": true}\n',
+         "decoded.jsonl: record 1: frame = 'x': expected int"),
+        ("decoded.jsonl", "[1, 2]\n", "decoded.jsonl: record 1: not a JSON object"),
+    ],
+)
+def test_malformed_inputs_of_evaluate_are_one_line(rendered, tmp_path, capsys, target, content, message):
+    run = copy_run(rendered, tmp_path)
+    assert main(["decode", str(run), "--quiet", "--workers", "1"]) == 0
+    (run / target).write_text(content)
+    assert main(["evaluate", str(run)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0]
+    assert not (run / "outcomes.csv").exists()

@@ -43,7 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rollsim.bench.common import format_table, machine
+from rollsim.tables import format_table, markdown_table
+from rollsim.bench.common import machine
 from rollsim.bench.image_error import IMAGE_FIELDS, ImageError, data_range_of
 from rollsim.bench.outcomes import DecodedRun, fitted_mmbp
 from rollsim.bench.variants import (
@@ -531,21 +532,17 @@ def format_accuracy(result: dict) -> str:
 def format_markdown(result: dict) -> str:
     """Both tables as Markdown."""
 
-    def table(header, rows):
-        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        return lines + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-
     lines = [
         f"`{result.get('command', 'rollsim bench accuracy')}`: {result['scene']} at {result['resolution']} "
         f"({result['output']}), {result['frames']} frames per setting, one core, {result['machine']['cpus']} CPUs; "
         f"SSIM on frames {result['ssim_frames']}.",
         "",
-        *table(TABLE_HEADER, table_rows(result)),
+        *markdown_table(table_rows(result), TABLE_HEADER),
         "",
         *[f"- {line}" for line in flat_field_lines(result)],
     ]
     if result["effects_cost"]:
-        lines += ["", *table(COST_HEADER, cost_table_rows(result))]
+        lines += ["", *markdown_table(cost_table_rows(result), COST_HEADER)]
     return "\n".join(lines)
 
 

@@ -8,11 +8,12 @@ from pathlib import Path
 
 import cv2
 
-from rollsim.bench.common import format_table, machine, seconds_per_call
+from rollsim.tables import format_table
+from rollsim.bench.common import machine, seconds_per_call
 from rollsim.render import render_frames
 from rollsim.render.writer import encode_png
 from rollsim.scene import load_scene
-from rollsim.transmitter import phy_from_scene
+from rollsim.decode import settings_from_scene
 
 SCENES = ("paper-default", "paper-10cm", "stress-saturation")
 
@@ -26,12 +27,12 @@ def decode_ms_per_frame(scene_name: str, frames: int) -> tuple[float, float]:
 
     scene = load_scene(scene_name)
     images, _ = render_frames(scene, frames)
-    phy = phy_from_scene(scene)
+    settings = settings_from_scene(scene)
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     try:
         decode = 1e3 * seconds_per_call(
-            lambda i: decode_frame(images[i % frames], phy, scene.link.clock_hz, scene.camera.row_time_s, i), frames
+            lambda i: decode_frame(images[i % frames], settings.phy, settings.clock_hz, settings.row_time_s, i), frames
         )
         with tempfile.TemporaryDirectory() as tmp:
             paths = []
@@ -71,5 +72,5 @@ def main(args) -> int:
     result = bench_decode(args.frames)
     print(format_decode(result))
     if args.json:
-        write_text_atomic(Path(args.json), json.dumps(result, indent=2) + "\n")
+        write_text_atomic(Path(args.json), json.dumps(result, indent=2, allow_nan=False) + "\n")
     return 0

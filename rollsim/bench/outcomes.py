@@ -32,13 +32,10 @@ class DecodedRun:
     """
 
     def __init__(self, pipeline):
-        from rollsim.transmitter import phy_from_scene
+        from rollsim.decode import settings_from_scene
 
         self.pipeline = pipeline
-        scene = pipeline.setup.scene
-        self._phy = phy_from_scene(scene)
-        self._clock_hz = scene.link.clock_hz
-        self._row_time_s = scene.camera.row_time_s
+        self._settings = settings_from_scene(pipeline.setup.scene)
         self.truth: list[dict] = []
         self.decoded: list[dict] = []
         self.render_s: list[float] = []
@@ -51,7 +48,8 @@ class DecodedRun:
         start = time.perf_counter()
         frame = self.pipeline.render(index)
         middle = time.perf_counter()
-        found = decode_frame(frame.image, self._phy, self._clock_hz, self._row_time_s, index)
+        settings = self._settings
+        found = decode_frame(frame.image, settings.phy, settings.clock_hz, settings.row_time_s, index)
         self.decode_s.append(time.perf_counter() - middle)
         self.render_s.append(middle - start)
         self.truth.append(frame.truth)

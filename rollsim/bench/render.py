@@ -11,7 +11,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from rollsim.bench.common import format_table, machine, seconds_per_call
+from rollsim.tables import format_table
+from rollsim.bench.common import machine, seconds_per_call
 from rollsim.render import RenderPipeline
 from rollsim.render.writer import encode_png, render_to_dir
 from rollsim.scene import load_scene

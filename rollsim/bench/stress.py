@@ -11,7 +11,8 @@ import json
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from rollsim.bench.common import format_table, machine
+from rollsim.tables import format_table, markdown_table
+from rollsim.bench.common import machine
 from rollsim.bench.outcomes import DecodedRun
 from rollsim.scene import bundled_scene_paths, load_scene, read_yaml
 
@@ -97,9 +98,7 @@ HEADER = (
 
 def format_markdown(result: dict) -> str:
     """The stress table as Markdown, with each scene's description below it."""
-    lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in table_rows(result)]
-    lines.append("")
+    lines = markdown_table(table_rows(result), HEADER) + [""]
     lines += [f"- `{r['scene']}`: {r['description']}" for r in result["scenes"]]
     return "\n".join(lines)
 

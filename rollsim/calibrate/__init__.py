@@ -178,13 +178,10 @@ __all__ = [
 ]
 
 
-def _number(value, digits: int = 4) -> str:
-    return "n/a" if value is None else f"{value:.{digits}g}"
-
-
 def format_calibration(result: dict) -> str:
     """The fitted parameters and the model comparison as plain text."""
-    from rollsim.bench.common import format_table
+    from rollsim.tables import format_number as _number
+    from rollsim.tables import format_table
 
     m, ge, mom = result["mmbp"], result["ge"], result["ge_moments"]
     lines = [

@@ -85,8 +85,11 @@ def read_trace_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     return success, start
 
 
-def load_trace(path) -> Trace:
-    """A trace from an evaluated render directory or a trace CSV."""
+def load_trace(path, source: str | None = None) -> Trace:
+    """A trace from an evaluated render directory or a trace CSV.
+
+    ``source`` names the trace in results (default: ``path``).
+    """
     from rollsim.evaluate import read_jsonl
     from rollsim.scene import load_scene
 
@@ -100,6 +103,6 @@ def load_trace(path) -> Trace:
         frames = np.array([t["start_s"] for t in read_jsonl(truth)]) if truth.exists() else None
         scene_file = path / "scene.resolved.yaml"
         scene = load_scene(scene_file) if scene_file.exists() else None
-        return Trace(success, start, frames, scene, str(path))
+        return Trace(success, start, frames, scene, source or str(path))
     success, start = read_trace_csv(path)
-    return Trace(success, start, None, None, str(path))
+    return Trace(success, start, None, None, source or str(path))

@@ -8,9 +8,9 @@ draws the plots (:mod:`rollsim.report.plots`) into ``plots/`` and writes
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
+from rollsim.tables import format_number, format_percent, markdown_table
 from rollsim.report.plots import (
     plot_goodput,
     plot_message_curves,
@@ -23,16 +23,6 @@ from rollsim.report.plots import (
 PLOTS_DIR = "plots"
 # Frames searched for the sample frame (the one with the most decodes).
 SAMPLE_SEARCH_FRAMES = 30
-
-
-def read_outcomes(path: Path) -> list[dict]:
-    """Rows of ``outcomes.csv`` with their numbers and flags parsed."""
-    with open(path, newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
-    for row in rows:
-        row["start_s"], row["end_s"] = float(row["start_s"]), float(row["end_s"])
-        row["tx"], row["frame"] = int(row["tx"]), int(row["frame"])
-    return rows
 
 
 def sample_frame_index(decoded: list[dict], n_frames: int) -> int:
@@ -58,40 +48,36 @@ def _scene_lines(scene) -> list[str]:
     ]
 
 
-def _rate(value) -> str:
-    return "n/a" if value is None else f"{100 * value:.3f} %"
-
-
 def _evaluation_lines(summary: dict) -> list[str]:
-    lines = ["| outcome | PHY-SDUs |", "|---|---|"]
-    lines += [f"| {name} | {count} |" for name, count in summary["counts"].items()]
+    rows = [*summary["counts"].items(), ("false decodes", summary["false_decodes"])]
+    lines = markdown_table(rows, ("outcome", "PHY-SDUs"))
     lines += [
-        f"| false decodes | {summary['false_decodes']} |",
         "",
         f"Fully visible: {summary['fully_visible']} of {summary['emissions']} emissions over {summary['frames']} frames "
         f"({summary.get('frames_unreadable', 0)} unreadable). PHY-SDU error rate among the fully visible: "
-        f"{_rate(summary['error_rate'])}; missed: {_rate(summary['missed_rate'])}; undetected errors among the passed: "
-        f"{_rate(summary['undetected_error_rate'])}; false decodes per 1000 frames: "
+        f"{format_percent(summary['error_rate'])}; missed: {format_percent(summary['missed_rate'])}; undetected errors among the passed: "
+        f"{format_percent(summary['undetected_error_rate'])}; false decodes per 1000 frames: "
         f"{summary['false_decodes_per_1000_frames']:.2f}.",
     ]
     return lines
 
 
-def _number(value, digits: int = 4) -> str:
-    return "n/a" if value is None else f"{value:.{digits}g}"
-
-
 def _calibration_lines(calibration: dict) -> list[str]:
     m, ge, prediction = calibration["mmbp"], calibration["ge"], calibration.get("prediction")
     criteria = calibration["criteria"]
-    lines = [
-        "| model | parameters | log L | AIC | BIC |",
-        "|---|---|---|---|---|",
-        f"| MMBP ({m['method']}) | M = {m['M']}, N = {m['N']}, p_e = {_number(m['p_e'])} "
-        f"(95 % CI {_number(m['p_e_ci95'][0])} – {_number(m['p_e_ci95'][1])}) | {_number(m['loglik'], 6)} | "
-        f"{_number(criteria['mmbp']['aic'], 6)} | {_number(criteria['mmbp']['bic'], 6)} |",
-        f"| Gilbert-Elliott (ML) | p = {_number(ge['p'])}, q = {_number(ge['q'])}, p_e = {_number(ge['p_e'])} | "
-        f"{_number(ge['loglik'], 6)} | {_number(criteria['ge']['aic'], 6)} | {_number(criteria['ge']['bic'], 6)} |",
+    parameters = {
+        "mmbp": f"M = {m['M']}, N = {m['N']}, p_e = {format_number(m['p_e'])} "
+                f"(95 % CI {format_number(m['p_e_ci95'][0])} – {format_number(m['p_e_ci95'][1])})",
+        "ge": f"p = {format_number(ge['p'])}, q = {format_number(ge['q'])}, p_e = {format_number(ge['p_e'])}",
+    }
+    names = {"mmbp": f"MMBP ({m['method']})", "ge": "Gilbert-Elliott (ML)"}
+    rows = [
+        (names[k], parameters[k], format_number(fit["loglik"], 6), format_number(criteria[k]["aic"], 6),
+         format_number(criteria[k]["bic"], 6))
+        for k, fit in (("mmbp", m), ("ge", ge))
+    ]
+    lines = markdown_table(rows, ("model", "parameters", "log L", "AIC", "BIC"))
+    lines += [
         "",
         f"Selected by AIC: **{calibration['selected_by_aic']}**, by BIC: **{calibration['selected_by_bic']}**. "
         f"Mean fully received slots per frame: {m['mean_on_per_frame']:.3f}.",
@@ -106,34 +92,32 @@ def _calibration_lines(calibration: dict) -> list[str]:
         )
     goodput = calibration.get("goodput_rp")
     if goodput:
-        lines += ["", "RP goodput, the fitted MMBP's prediction (event simulator) against the pixel-level trace replayed:", "",
-                  "| r | MMBP (bit/s) | replayed (bit/s) | difference |", "|---|---|---|---|"]
-        lines += [
-            f"| {g['r']} | {_number(g['predicted_bps'], 5)} | {_number(g['replayed_bps'], 5)} | "
-            + ("n/a" if g["relative_difference"] is None else f"{100 * g['relative_difference']:+.1f} %") + " |"
+        rows = [
+            (g["r"], format_number(g["predicted_bps"], 5), format_number(g["replayed_bps"], 5),
+             "n/a" if g["relative_difference"] is None else f"{100 * g['relative_difference']:+.1f} %")
             for g in goodput
         ]
+        lines += ["", "RP goodput, the fitted MMBP's prediction (event simulator) against the pixel-level trace replayed:", ""]
+        lines += markdown_table(rows, ("r", "MMBP (bit/s)", "replayed (bit/s)", "difference"))
     return lines
 
 
 def _timing_lines(timings: dict, n_frames: int) -> list[str]:
-    lines = ["| stage | seconds | ms per frame |", "|---|---|---|"]
-    lines += [f"| {stage} | {seconds:.2f} | {1e3 * seconds / max(1, n_frames):.1f} |" for stage, seconds in timings.items()]
-    return lines
+    rows = [(stage, f"{seconds:.2f}", f"{1e3 * seconds / max(1, n_frames):.1f}") for stage, seconds in timings.items()]
+    return markdown_table(rows, ("stage", "seconds", "ms per frame"))
 
 
-def write_report(run_dir: Path, scene, evaluation_summary: dict, calibration: dict | None, timings: dict,
+def write_report(run_dir: Path, scene, evaluation, calibration: dict | None, timings: dict,
                  calibration_error: str | None = None) -> Path:
     """Draw the plots and write ``report.md``; returns its path.
 
     Parameters
     ----------
     run_dir : Path
-        A run directory holding frames, ``truth.jsonl``, ``decoded.jsonl``
-        and ``outcomes.csv``.
+        A run directory holding frames, ``truth.jsonl`` and ``decoded.jsonl``.
     scene : Scene
-    evaluation_summary : dict
-        :attr:`rollsim.evaluate.Evaluation.summary`.
+    evaluation : rollsim.evaluate.Evaluation
+        The outcomes and their summary.
     calibration : dict or None
         :func:`rollsim.calibrate.calibrate`'s result; None when the trace
         could not be fitted (``calibration_error`` says why).
@@ -143,9 +127,8 @@ def write_report(run_dir: Path, scene, evaluation_summary: dict, calibration: di
     """
     from decoder import inspect_frame, read_frame
 
-    from rollsim.decode import frame_files
+    from rollsim.decode import frame_files, settings_from_scene
     from rollsim.evaluate import read_jsonl
-    from rollsim.transmitter import phy_from_scene
 
     run_dir = Path(run_dir)
     plots = run_dir / PLOTS_DIR
@@ -154,13 +137,13 @@ def write_report(run_dir: Path, scene, evaluation_summary: dict, calibration: di
     decoded = read_jsonl(run_dir / "decoded.jsonl")
     frame = sample_frame_index(decoded, len(truth))
     image = read_frame(frame_files(run_dir)[frame])
-    views = inspect_frame(image, phy_from_scene(scene), scene.link.clock_hz, scene.camera.row_time_s, frame)
+    settings = settings_from_scene(scene)
+    views = inspect_frame(image, settings.phy, settings.clock_hz, settings.row_time_s, frame)
     figures = [("A sample frame", plot_sample_frame(image, views, frame, plots / "sample_frame.png"))]
     if views:
         figures.append(("Its row profile and threshold", plot_row_profile(views[0], frame, plots / "row_profile.png")))
-    outcomes = read_outcomes(run_dir / "outcomes.csv")
-    if outcomes:
-        figures.append(("Outcome timeline", plot_outcome_timeline(outcomes, truth, plots / "outcome_timeline.png")))
+    if evaluation.outcomes:
+        figures.append(("Outcome timeline", plot_outcome_timeline(evaluation.outcomes, truth, plots / "outcome_timeline.png")))
     if calibration is not None:
         figures += [
             ("Run lengths", plot_run_lengths(calibration, plots / "run_lengths.png")),
@@ -174,7 +157,7 @@ def write_report(run_dir: Path, scene, evaluation_summary: dict, calibration: di
         lines += [scene.description, ""]
     lines += _scene_lines(scene) + ["", f"{n_frames} frames: render → decode → evaluate → calibrate → report.", ""]
     lines += ["## Time per stage", ""] + _timing_lines(timings, n_frames) + [""]
-    lines += ["## Evaluation against the ground truth", ""] + _evaluation_lines(evaluation_summary) + [""]
+    lines += ["## Evaluation against the ground truth", ""] + _evaluation_lines(evaluation.summary) + [""]
     if calibration is not None:
         lines += ["## Calibration", ""] + _calibration_lines(calibration) + [""]
     else:
