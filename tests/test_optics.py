@@ -87,3 +87,22 @@ def test_camera_equation():
     # L = 1000 cd/m2 at f/2, T = 1, m = 0: E = π 1000 / 16.
     assert sensor_illuminance_lx(1000.0, 2.0, 1.0) == pytest.approx(math.pi * 1000 / 16)
     assert sensor_illuminance_lx(1000.0, 2.0, 1.0, 1.0) == pytest.approx(math.pi * 1000 / 64)
+
+
+@pytest.mark.parametrize("distance_cm", [5.0, 10.0, 50.0])
+def test_ambient_surfaces_of_equal_luminance_give_equal_irradiance(distance_cm):
+    """Irradiance from an extended Lambertian surface depends on its luminance
+    and on where the sensor sits (the working f-number N·(1 + m), the lens
+    focused on the LED), not on how far the surface is: the distant
+    background and the LED's face, of equal reflectance, give the same."""
+    from rollsim.render.setup import ambient_sensor_illuminances_lx
+    from rollsim.scene import load_scene
+
+    scene = load_scene("paper-default", [f"link.distance_cm={distance_cm}", "led.face_reflectance=0.5",
+                                         "environment.background_reflectance=0.5"])
+    background, face = ambient_sensor_illuminances_lx(scene)
+    cam = scene.camera
+    m = magnification(cam.focal_length_mm * 1e-3, distance_cm * 1e-2)
+    luminance = 0.5 * scene.environment.ambient_lux / math.pi
+    expected = math.pi * luminance * cam.lens_transmission / (4 * cam.f_number**2 * (1 + m) ** 2)
+    assert background == pytest.approx(face, rel=1e-15) and background == pytest.approx(expected, rel=1e-12)

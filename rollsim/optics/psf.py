@@ -48,7 +48,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import convolve
 
 from rollsim.optics.footprint import Footprint, footprint
 
@@ -175,11 +174,19 @@ def convolve_full(image: np.ndarray, kernels) -> np.ndarray:
         R is the sum of the kernels' radii; the output covers the input
         dilated by R.
     """
+    # Imported here: an unlisted blur must not cost scipy.signal's import.
+    from scipy.ndimage import convolve1d
+    from scipy.signal import convolve
+
     out = image
     for kernel in kernels:
         if isinstance(kernel, tuple):
-            out = convolve(out, kernel[0][:, None], mode="full")
-            out = convolve(out, kernel[1][None, :], mode="full")
+            # Two 1-D passes on the zero-padded image: the "full" convolution,
+            # without the 2-D FFT a generic convolve would pick.
+            ry, rx = len(kernel[0]) // 2, len(kernel[1]) // 2
+            out = np.pad(out, ((ry, ry), (rx, rx)))
+            out = convolve1d(out, kernel[0], axis=0, mode="constant")
+            out = convolve1d(out, kernel[1], axis=1, mode="constant")
         else:
             out = convolve(out, kernel, mode="full")
     return out

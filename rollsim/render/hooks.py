@@ -80,7 +80,9 @@ def lens_psf(setup):
     """``blur`` and/or ``defocus``: the coverage convolved by every listed kernel.
 
     The image is rescaled by v_f/v (:func:`lens_kernels`) and its light per
-    unit area by (v/v_f)², so the LED's light is conserved. The LED rows are
+    unit area by (v/v_f)², so the LED's light is conserved; the sensor at
+    v_f sees the background's irradiance scaled by the same (v/v_f)² (the
+    working f-number). The LED rows are
     those of the blurred coverage: a row belongs to the LED when the LED's
     light in it adds up to ``MIN_ROW_COVERAGE_PX`` fully covered pixels,
     the same rule as without a PSF (where it marks the footprint's geometric
@@ -97,6 +99,7 @@ def lens_psf(setup):
         led_size_px=size_px,
         led_rows=led_rows_from_coverage(fp.row_coverage(scene.camera.height_px)),
         led_e_per_s=setup.led_e_per_s * scale**-2,
+        background_e_per_s=setup.background_e_per_s * scale**-2,
         face_e_per_s=setup.face_e_per_s * scale**-2,
     )
 

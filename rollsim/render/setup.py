@@ -56,8 +56,11 @@ def ambient_sensor_illuminances_lx(scene) -> tuple[float, float]:
     """Sensor-plane illuminance of ambient light, on axis: (background, LED face).
 
     The background is Lambertian with ``environment.background_reflectance``
-    and far away (m → 0); the LED's face reflects ambient light with
-    ``led.face_reflectance`` at the LED's magnification.
+    and the LED's face reflects ambient light with ``led.face_reflectance``.
+    The (1 + m)² of the camera equation is the working f-number's: it comes
+    from where the sensor sits (v = f·(1 + m) behind the lens, focused on
+    the LED), not from where a source is, so the far background, out of
+    focus, gets the LED's m too.
     """
     cam, env = scene.camera, scene.environment
     m = magnification(cam.focal_length_mm * 1e-3, scene.link.distance_m)
@@ -66,7 +69,7 @@ def ambient_sensor_illuminances_lx(scene) -> tuple[float, float]:
         luminance = lambertian_luminance_cd_m2(env.ambient_lux, reflectance)
         return sensor_illuminance_lx(luminance, cam.f_number, cam.lens_transmission, mag)
 
-    return illuminance(env.background_reflectance, 0.0), illuminance(scene.led.face_reflectance, m)
+    return illuminance(env.background_reflectance, m), illuminance(scene.led.face_reflectance, m)
 
 
 def ambient_electron_rates(scene) -> tuple[float, float]:

@@ -33,7 +33,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import lfilter
 
 # Time constants of history before the first time asked for.
 HISTORY_TAU = 40.0
@@ -43,6 +42,9 @@ _CHUNK_CHIPS = 1 << 20
 
 def _relax(levels: np.ndarray, a: float, y_start: float) -> np.ndarray:
     """Y_{m+1} = a·Y_m + (1 − a)·s_m for m = 0…n−1, from Y_0 = ``y_start``; returns Y_1…Y_n."""
+    # Imported here: an unlisted rise time must not cost scipy.signal's import.
+    from scipy.signal import lfilter
+
     out, _ = lfilter([1.0 - a], [1.0, -a], levels, zi=[a * y_start])
     return out
 
