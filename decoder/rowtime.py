@@ -25,6 +25,7 @@ from scipy.ndimage import uniform_filter1d
 
 from decoder.binarize import binarize_profile
 from decoder.io import FrameError, as_frame_array, read_frame
+from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
 from decoder.region import block_means, choose_factor, detect_regions
 from decoder.timing import find_runs
@@ -131,7 +132,8 @@ def frame_period_rows(image) -> tuple[float, float, int] | None:
     """Square-wave stripe period (rows) in a frame's largest LED region."""
     frame = as_frame_array(image)
     blocks = block_means(frame, choose_factor(frame.shape[:2]))
-    regions = detect_regions(blocks, close_rows=100.0, max_regions=1)
+    # The chip pitch is not known yet: the closing height for an unknown pitch.
+    regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
     if not regions:
         return None
     profile = row_profile(blocks, regions[0])
