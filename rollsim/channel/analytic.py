@@ -80,6 +80,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rollsim.budget import check_memory
+from rollsim.channel import phase_sweep
 from rollsim.channel.validation import MAX_COUNT as _MAX_COUNT
 from rollsim.channel.validation import as_count as _as_count
 from rollsim.channel.validation import as_positive as _as_positive
@@ -126,6 +128,32 @@ def _check_cycle(M, N) -> tuple[int, int, int]:
     if M + N < 1:
         raise ValueError("the cycle C = M + N must be >= 1 slot, got M = N = 0")
     return M, N, M + N
+
+
+# Cycles up to this length use the dense O(C) forms (a few MB); longer ones
+# use the phase sweep (rollsim.channel.phase_sweep), whose cost follows the
+# emissions, whenever it needs less memory.
+_DENSE_MAX_CYCLE = 1 << 18
+# Memory of the dense forms per slot of the cycle: the orbit walk, its
+# doubled copy and cumulative sums, ON counts and log factors.
+_DENSE_BYTES_PER_SLOT = 96
+
+
+def _sweeps(C: int, emissions: int) -> bool:
+    """Whether to average over phases by the sweep (True) or densely (False).
+
+    Checks the chosen method's memory against the budget
+    (:mod:`rollsim.budget`), so that a cycle of 10**9 slots with few
+    emissions answers in O(emissions) memory, and one that neither method
+    can afford is refused before it allocates.
+    """
+    if C <= _DENSE_MAX_CYCLE:
+        return False
+    dense = _DENSE_BYTES_PER_SLOT * C
+    sweep = phase_sweep.SWEEP_BYTES_PER_EMISSION * emissions
+    use_sweep = sweep < dense
+    check_memory(f"M + N = {C} with {emissions} emissions per round", min(dense, sweep))
+    return use_sweep
 
 
 def _check_strategy(strategy) -> str:
@@ -478,6 +506,8 @@ def mmbp_p0_rp(M, N, r, p_e: float) -> float:
     M, N, C = _check_cycle(M, N)
     r = _as_count(r, "r", 1)
     p_e = _as_probability(p_e, "p_e")
+    if _sweeps(C, r):
+        return phase_sweep.mean_loss(M, C, np.arange(r, dtype=np.int64), p_e)
     m = _on_counts_rp(M, C, r)
     return float(np.mean(np.power(p_e, m)))
 
@@ -518,6 +548,8 @@ def mmbp_p0_rs(M, N, r, p_e: float, n_packets) -> float:
     r = _as_count(r, "r", 1)
     p_e = _as_probability(p_e, "p_e")
     n = _as_count(n_packets, "n_packets", 1)
+    if _sweeps(C, r):
+        return phase_sweep.mean_loss(M, C, np.arange(r, dtype=np.int64) * n, p_e)
     m = _on_counts_rs(M, C, r, n)
     return float(np.mean(np.power(p_e, m)))
 
@@ -678,6 +710,10 @@ def mmbp_log_p_message(M, N, r, p_e: float, n_packets, strategy: str, exact: boo
     n = _as_count(n_packets, "n_packets", 1)
     strategy = _check_strategy(strategy)
     if exact:
+        if _sweeps(C, r * n):
+            emissions = np.arange(r * n, dtype=np.int64)
+            packets = emissions // r if strategy == "rp" else emissions % n
+            return phase_sweep.log_mean_message(M, C, emissions, packets, n, p_e)
         return _log_mean_exp(_log_message_per_phase(M, C, r, p_e, n, strategy))
     p0 = mmbp_p0_rp(M, N, r, p_e) if strategy == "rp" else mmbp_p0_rs(M, N, r, p_e, n)
     return n * math.log1p(-p0) if p0 < 1.0 else -math.inf

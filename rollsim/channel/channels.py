@@ -185,21 +185,30 @@ class MmbpChannel:
         return _MmbpRun(self, np.random.default_rng(seed_sequence))
 
 
+# Cycles up to this many slots are tiled once per run (slicing a pattern is
+# cheaper than a modulo per emission); longer ones, up to the 10**7-slot
+# frames a scene allows, are computed per emission so that a run's memory
+# does not grow with M + N.
+_TILE_MAX_CYCLE = 1 << 16
+
+
 class _MmbpRun:
     def __init__(self, channel: MmbpChannel, rng: np.random.Generator):
         self._channel = channel
         self._rng = rng
-        self._cycle = np.arange(channel.cycle_slots) < channel.M
-        self._slot = int(rng.integers(channel.cycle_slots))  # slot of the next emission
+        C = channel.cycle_slots
+        self._cycle = np.arange(C) < channel.M if C <= _TILE_MAX_CYCLE else None
+        self._slot = int(rng.integers(C))  # slot of the next emission
         self._tiled = self._cycle
 
     def next_block(self, count: int) -> np.ndarray:
         C = self._channel.cycle_slots
-        if self._tiled.size < count + C:
-            # One tiled pattern per run and block size: slicing it is cheaper
-            # than a modulo per emission.
-            self._tiled = np.resize(self._cycle, count + C)
-        on = self._tiled[self._slot : self._slot + count]
+        if self._cycle is None:
+            on = (self._slot + np.arange(count, dtype=np.int64)) % C < self._channel.M
+        else:
+            if self._tiled.size < count + C:
+                self._tiled = np.resize(self._cycle, count + C)
+            on = self._tiled[self._slot : self._slot + count]
         self._slot = (self._slot + count) % C
         return _outcomes(on, self._rng.random(count), self._channel.p_e)
 
