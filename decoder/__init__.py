@@ -11,12 +11,13 @@ Stages, one module each: :mod:`decoder.io` (reading frames),
 calibrates the row time from square-wave frames.
 """
 
-from decoder.io import FrameError, FrameReadError, as_frame_array, read_frame
+from decoder.io import MAX_FRAME_PIXELS, FrameError, FrameReadError, as_frame_array, png_header, read_frame
 from decoder.pipeline import RegionView, decode_frame, decode_frames, decode_profile, inspect_frame
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
 from decoder.rowtime import RowTimeError, estimate_row_time
 
 __all__ = [
+    "MAX_FRAME_PIXELS",
     "STATUSES",
     "DecodedPhySdu",
     "FrameDecode",
@@ -30,5 +31,6 @@ __all__ = [
     "decode_profile",
     "estimate_row_time",
     "inspect_frame",
+    "png_header",
     "read_frame",
 ]

@@ -16,7 +16,6 @@ with a :class:`FrameError`, never guessed at.
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -27,6 +26,13 @@ PNG_IEND = b"\x00\x00\x00\x00IEND\xaeB`\x82"
 # A frame must have room for at least a few stripes; smaller is not a frame.
 MIN_ROWS = 4
 MIN_COLS = 2
+# The largest frame read by default: 2**28 pixels (16384 x 16384), more than
+# any camera sensor. A file that declares more is refused from its header,
+# before a byte of image memory is allocated.
+MAX_FRAME_PIXELS = 2**28
+# Bytes of a decoded PNG per pixel, by IHDR colour type (OpenCV expands a
+# palette to RGB and grey + alpha to four channels), before the bit depth.
+_CHANNELS = {0: 1, 2: 3, 3: 3, 4: 4, 6: 4}
 
 
 class FrameError(ValueError):
@@ -97,13 +103,57 @@ def as_frame_array(image) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
-def read_frame(path) -> np.ndarray:
+def png_header(data: bytes) -> tuple[int, int, int]:
+    """Width, height and decoded bytes per pixel that a PNG's IHDR chunk declares.
+
+    Raises
+    ------
+    ValueError
+        No IHDR chunk where the PNG format puts it, or impossible values.
+    """
+    if len(data) < 33 or data[12:16] != b"IHDR":
+        raise ValueError("no IHDR chunk after the signature")
+    width, height = int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    depth, colour = data[24], data[25]
+    if width < 1 or height < 1 or colour not in _CHANNELS or depth not in (1, 2, 4, 8, 16):
+        raise ValueError(f"impossible header (size {width}x{height}, bit depth {depth}, colour type {colour})")
+    return width, height, _CHANNELS[colour] * (2 if depth == 16 else 1)
+
+
+def _check_declared_size(name: str, data: bytes, max_pixels: int) -> None:
+    """Refuse a PNG whose header declares more pixels than ``max_pixels``."""
+    try:
+        width, height, _ = png_header(data)
+    except ValueError as exc:
+        raise FrameReadError(name, f"corrupt PNG ({exc})") from None
+    if width * height > max_pixels:
+        raise FrameReadError(name, f"declares {width}x{height} pixels, more than the {max_pixels} allowed "
+                                   "(a frame this large would not fit in memory)")
+
+
+def _read_bounded(name: str, max_pixels: int) -> bytes:
+    """The file's bytes, refusing one larger than any PNG of ``max_pixels`` could be."""
+    # Deflate never grows data by more than a few bytes per 16 kB block:
+    # 8 bytes per pixel (RGBA16) plus filter bytes and chunk overhead bound
+    # every valid PNG of that many pixels.
+    limit = 8 * max_pixels + (1 << 20) + max_pixels // 8
+    with open(name, "rb") as handle:
+        data = handle.read(limit + 1)
+    if len(data) > limit:
+        raise FrameReadError(name, f"larger than any PNG of at most {max_pixels} pixels")
+    return data
+
+
+def read_frame(path, max_pixels: int = MAX_FRAME_PIXELS) -> np.ndarray:
     """Read a PNG frame, unchanged in bit depth.
 
     Parameters
     ----------
     path : str or os.PathLike
         A PNG file: 8- or 16-bit, gray or colour.
+    max_pixels : int, optional
+        The largest frame to read; a file whose header declares more is
+        refused before its image is allocated.
 
     Returns
     -------
@@ -114,13 +164,13 @@ def read_frame(path) -> np.ndarray:
     Raises
     ------
     FrameReadError
-        Missing or unreadable file, not a PNG, truncated, undecodable, or
-        of a shape :func:`as_frame_array` rejects. The message names the
-        file.
+        Missing or unreadable file, not a PNG, truncated, undecodable,
+        larger than ``max_pixels``, or of a shape :func:`as_frame_array`
+        rejects. The message names the file.
     """
     name = os.fspath(path)
     try:
-        data = Path(name).read_bytes()
+        data = _read_bounded(name, max_pixels)
     except FileNotFoundError:
         raise FrameReadError(name, "no such file") from None
     except IsADirectoryError:
@@ -133,6 +183,7 @@ def read_frame(path) -> np.ndarray:
     # goes to stderr.
     if PNG_IEND not in data[-4096:]:
         raise FrameReadError(name, "truncated PNG (no IEND chunk)")
+    _check_declared_size(name, data, max_pixels)
     image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None or image.size == 0:
         raise FrameReadError(name, "corrupt PNG (cannot be decoded)")

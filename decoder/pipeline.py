@@ -20,7 +20,7 @@ from rollsim.protocol import PhyFormat, max_run_length
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
-from decoder.io import FrameError, as_frame_array, read_frame
+from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.profile import RowProfile, row_profile
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
 from decoder.region import block_means, choose_factor, detect_regions
@@ -372,6 +372,7 @@ def decode_frames(
     *,
     first_frame: int = 0,
     errors: list | None = None,
+    max_pixels: int = MAX_FRAME_PIXELS,
     **options,
 ) -> Iterator[FrameDecode]:
     """Decode a stream of frames, one :class:`FrameDecode` per frame.
@@ -388,6 +389,8 @@ def decode_frames(
     errors : list, optional
         Error records (:meth:`FrameDecode.error_record`) of the frames that
         could not be decoded are appended here too.
+    max_pixels : int, optional
+        Largest frame file to read (:func:`decoder.io.read_frame`).
     **options
         Passed to :func:`decode_frame`.
 
@@ -404,7 +407,7 @@ def decode_frames(
             source = os.fspath(item)
             index = frame_index_from_name(source, index)
         try:
-            image = read_frame(source) if source is not None else item
+            image = read_frame(source, max_pixels) if source is not None else item
             sdus = decode_frame(image, phy, clock_hz, row_time_s, index, **options)
         except (FrameError, cv2.error) as exc:
             failed = FrameDecode(index, source, (), str(exc))

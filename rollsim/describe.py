@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.budget import check_memory
 from rollsim.protocol import camcomsim_sdu_duration_s, last_payload_bits
 from rollsim.transmitter import transmitter_from_scene
 
@@ -22,10 +23,13 @@ def describe_scene(scene, emissions: int = 12) -> dict:
         How many emissions of the schedule to list.
     """
     cam, link = scene.camera, scene.link
+    # The listed sequence numbers become an int64, a Python int and JSON
+    # text each: about 64 bytes per emission.
+    check_memory(f"--emissions = {emissions}", 64 * emissions)
     tx = transmitter_from_scene(scene)
     phy = tx.phy
-    period_tx = np.arange(tx.schedule.emissions_per_round)
-    ones = tx.waveform.chips.ones_before(np.array([0, tx.schedule.emissions_per_round * phy.sdu_chips]))
+    round_emissions = tx.schedule.emissions_per_round
+    ones = tx.waveform.chips.ones_before(np.array([0, round_emissions * phy.sdu_chips]))
     return {
         "name": scene.name,
         "camera": {
@@ -74,7 +78,7 @@ def describe_scene(scene, emissions: int = 12) -> dict:
             "clock_hz": link.clock_hz,
             "start_offset_us": link.start_offset_us,
             "first_sdu_chips": _chip_string(tx.waveform.chips.values(np.arange(phy.sdu_chips))),
-            "on_fraction": float(ones[1] - ones[0]) / max(1, len(period_tx) * phy.sdu_chips),
+            "on_fraction": float(ones[1] - ones[0]) / max(1, round_emissions * phy.sdu_chips),
         },
         "effects": list(scene.effects.enabled()),
     }

@@ -50,14 +50,16 @@ from __future__ import annotations
 
 import math
 import os
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import numpy as np
 from scipy.special import stdtrit
 
+from rollsim.budget import check_memory
 from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, _as_count
+from rollsim.parallel import process_pool
 from rollsim.transmitter.schedule import Schedule
 
 __all__ = [
@@ -101,6 +103,9 @@ CAMCOMSIM_FIELDS = {
 # (long runs amortise the per-block overhead, memory stays bounded).
 _MIN_BLOCK = 256
 _MAX_BLOCK = 4096
+# Bytes a run's results take: six int64 counts, then ten float64 or int64
+# metric arrays and their summaries.
+_BYTES_PER_RUN = 160
 # Columns of the per-chunk integer table.
 _COUNTS = ("emissions", "receptions", "unique_receptions", "gap_losses", "decode_errors", "completed")
 
@@ -319,6 +324,10 @@ def simulate_broadcast(
     if progress is not None and not callable(progress):
         raise ValueError(f"progress must be callable, got {progress!r}")
 
+    # Per run: its row of counts and the result's metric arrays; per worker:
+    # a run's received-packet flags and one block of outcomes.
+    check_memory(f"runs = {runs} of {schedule.n_packets} packets",
+                 runs * _BYTES_PER_RUN + min(workers, runs) * (schedule.n_packets + 64 * _MAX_BLOCK))
     bounds = [(lo, min(lo + chunk, runs)) for lo in range(0, runs, chunk)]
     tables: list = [None] * len(bounds)
     args = (channel, schedule, max_emissions, seed)
@@ -328,7 +337,7 @@ def simulate_broadcast(
             if progress is not None:
                 progress(hi - lo)
     else:
-        with ProcessPoolExecutor(max_workers=min(workers, len(bounds))) as pool:
+        with process_pool(min(workers, len(bounds))) as pool:
             futures = {pool.submit(_simulate_chunk, *args, lo, hi): i for i, (lo, hi) in enumerate(bounds)}
             for future in as_completed(futures):
                 i = futures[future]

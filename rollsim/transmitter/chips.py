@@ -45,6 +45,11 @@ class SquareChips:
         return (np.asarray(chip, dtype=np.int64) + 1) // 2
 
 
+def prefix_dtype(chips_per_sdu: int) -> np.dtype:
+    """The unsigned integer type of a PHY-SDU's running ON-chip count."""
+    return np.min_scalar_type(max(1, int(chips_per_sdu)))
+
+
 @dataclass(frozen=True)
 class DataChips:
     """PHY-SDUs back to back, in the order a schedule gives.
@@ -60,15 +65,20 @@ class DataChips:
     schedule: Schedule
     sdu_chips: np.ndarray
     _prefix: np.ndarray = field(init=False, repr=False, compare=False)
+    _totals: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         table = np.asarray(self.sdu_chips, dtype=np.uint8)
         if table.ndim != 2 or table.shape[0] != self.schedule.n_packets:
             raise ValueError(f"sdu_chips must have shape ({self.schedule.n_packets}, chips_per_sdu)")
-        prefix = np.zeros((table.shape[0], table.shape[1] + 1), dtype=np.int64)
+        # ON chips before each offset of a PHY-SDU: at most its chip count,
+        # so the smallest unsigned type that holds it (uint16 for any valid
+        # PHY-SDU) keeps a message of millions of packets in memory.
+        prefix = np.zeros((table.shape[0], table.shape[1] + 1), dtype=prefix_dtype(table.shape[1]))
         np.cumsum(table, axis=1, out=prefix[:, 1:])
         object.__setattr__(self, "sdu_chips", table)
         object.__setattr__(self, "_prefix", prefix)
+        object.__setattr__(self, "_totals", prefix[:, -1].astype(np.int64))
 
     @property
     def chips_per_sdu(self) -> int:
@@ -85,5 +95,5 @@ class DataChips:
 
     def ones_before(self, chip) -> np.ndarray:
         tx, offset = self.split(chip)
-        whole = self.schedule.cumulative(tx, self._prefix[:, -1])
-        return whole + self._prefix[self.schedule.sequence_numbers(tx), offset]
+        whole = self.schedule.cumulative(tx, self._totals)
+        return whole + self._prefix[self.schedule.sequence_numbers(tx), offset].astype(np.int64)

@@ -10,8 +10,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rollsim.protocol import PhyFormat, packetize
-from rollsim.transmitter.chips import ConstantChips, DataChips, SquareChips
+from rollsim.budget import check_memory
+from rollsim.protocol import PhyFormat, n_packets, packetize
+from rollsim.transmitter.chips import ConstantChips, DataChips, SquareChips, prefix_dtype
 from rollsim.transmitter.message import message_from_seed
 from rollsim.transmitter.schedule import Schedule
 from rollsim.transmitter.waveform import Waveform
@@ -103,6 +104,35 @@ class Transmitter:
         return out
 
 
+# Packets encoded at a time: the line code's temporaries (int64 bit
+# arrays) stay a few tens of MB whatever the message size.
+_ENCODE_BLOCK = 1 << 16
+
+
+def transmitter_bytes(phy: PhyFormat, message_bytes: int) -> int:
+    """Peak bytes :func:`build_transmitter` allocates for a message.
+
+    The message and its bits (9 bytes per byte), then per packet its payload
+    bits, its chips (1 byte each), their running ON counts
+    (:func:`~rollsim.transmitter.chips.prefix_dtype`) and an int64 total;
+    plus one encoding block's temporaries.
+    """
+    packets = n_packets(message_bytes, phy.payload_bits)
+    prefix = prefix_dtype(phy.sdu_chips).itemsize
+    per_packet = phy.payload_bits + phy.sdu_chips + (phy.sdu_chips + 1) * prefix + 8
+    block = min(packets, _ENCODE_BLOCK) * (phy.codeword_bits * 8 * 2 + phy.sdu_chips * 2)
+    return 9 * message_bytes + packets * per_packet + block
+
+
+def _encode_blocks(phy: PhyFormat, payloads: np.ndarray) -> np.ndarray:
+    """Chips of every packet's PHY-SDU (row k: sequence number k), encoded block by block."""
+    table = np.empty((payloads.shape[0], phy.sdu_chips), dtype=np.uint8)
+    for first in range(0, payloads.shape[0], _ENCODE_BLOCK):
+        last = min(first + _ENCODE_BLOCK, payloads.shape[0])
+        table[first:last] = phy.encode(np.arange(first, last), payloads[first:last])
+    return table
+
+
 def build_transmitter(
     phy: PhyFormat,
     message: bytes,
@@ -135,11 +165,14 @@ def build_transmitter(
     """
     if pattern not in PATTERNS:
         raise ValueError(f"unknown pattern {pattern!r}; expected one of {list(PATTERNS)}")
+    packets = n_packets(len(message), phy.payload_bits)
+    if packets > (1 << phy.header_bits):
+        raise ValueError(f"{packets} packets need more than {phy.header_bits} header bits")
+    check_memory(f"link.message_bytes = {len(message)} ({packets} packets of {phy.sdu_chips} chips)",
+                 transmitter_bytes(phy, len(message)))
     payloads = packetize(message, phy.payload_bits)
-    if len(payloads) > (1 << phy.header_bits):
-        raise ValueError(f"{len(payloads)} packets need more than {phy.header_bits} header bits")
-    schedule = Schedule(strategy, len(payloads), repeats)
-    sdu_chips = phy.encode(np.arange(len(payloads)), payloads)
+    schedule = Schedule(strategy, packets, repeats)
+    sdu_chips = _encode_blocks(phy, payloads)
     chips = {
         "data": lambda: DataChips(schedule, sdu_chips),
         "square": SquareChips,
