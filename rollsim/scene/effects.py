@@ -12,6 +12,8 @@ from typing import Literal, Optional
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from rollsim.errors import SceneError, short_repr
+
 
 class _Params(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
@@ -192,6 +194,10 @@ def normalise_effects(value):
     if value is None:
         return {}
     if isinstance(value, (list, tuple)):
+        for name in value:
+            if not isinstance(name, str):
+                raise SceneError(f"effects: {short_repr(name)}: a list of effects holds effect names "
+                                 f"({', '.join(EFFECT_NAMES)})")
         return {name: {} for name in value}
     if isinstance(value, dict):
         return {name: ({} if params is None or params is True else params) for name, params in value.items() if params is not False}

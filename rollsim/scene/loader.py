@@ -15,6 +15,7 @@ from __future__ import annotations
 import copy
 import difflib
 import re
+import stat
 from pathlib import Path
 from typing import Iterable, Mapping, Optional, Union, get_args
 
@@ -22,7 +23,7 @@ import annotated_types
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from rollsim.errors import SceneError
+from rollsim.errors import SceneError, clip, short_repr
 from rollsim.protocol import CRC8_MAX_DATA_BITS, min_header_bits, n_packets
 from rollsim.scene.effects import normalise_effects
 from rollsim.scene.model import Scene
@@ -32,23 +33,58 @@ from rollsim.sensor.frame_jitter import frame_jitter_error
 ROW_TIMING_KEYS = ("row_time_us", "ifg_ratio")
 
 
+# Limits of a scene's YAML: a real scene is a few kB, a few levels deep and
+# a few hundred nodes. Anything past these is refused before it costs
+# memory or time (a YAML alias bomb expands to billions of nodes).
+MAX_SCENE_BYTES = 1 << 20
+MAX_YAML_DEPTH = 64
+MAX_YAML_NODES = 100_000
+MAX_INT_DIGITS = 100
+
+
 class _UniqueKeyLoader(yaml.SafeLoader):
-    """Safe YAML loader that rejects duplicate keys instead of keeping the last."""
+    """Safe YAML loader that rejects duplicate keys instead of keeping the last,
+    and bounds nesting depth, alias expansion and integer length."""
+
+    def compose_node(self, parent, index):
+        # The composer recurses once per level: bound the depth before
+        # Python's own recursion limit turns it into a traceback.
+        self._depth = getattr(self, "_depth", 0) + 1
+        try:
+            if self._depth > MAX_YAML_DEPTH and self.check_event(yaml.CollectionStartEvent):
+                raise yaml.composer.ComposerError(
+                    None, None, f"nested deeper than {MAX_YAML_DEPTH} levels", self.peek_event().start_mark
+                )
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
 
 
 def _construct_mapping(loader, node, deep=False):
     seen = set()
     for key_node, _ in node.value:
+        if not isinstance(key_node, yaml.ScalarNode):
+            raise yaml.constructor.ConstructorError(None, None, "a key must be a plain value, not a list or mapping",
+                                                    key_node.start_mark)
         key = loader.construct_object(key_node, deep=deep)
         if key in seen:
             raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r}", key_node.start_mark
+                None, None, f"duplicate key {short_repr(key)}", key_node.start_mark
             )
         seen.add(key)
     return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
 
 
+def _construct_int(loader, node):
+    digits = sum(ch.isdigit() for ch in node.value)
+    if digits > MAX_INT_DIGITS:
+        raise yaml.constructor.ConstructorError(None, None, f"an integer of {digits} digits (at most {MAX_INT_DIGITS})",
+                                                node.start_mark)
+    return yaml.SafeLoader.construct_yaml_int(loader, node)
+
+
 _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+_UniqueKeyLoader.add_constructor("tag:yaml.org,2002:int", _construct_int)
 
 # PyYAML follows YAML 1.1, where "1e-3" (no dot) is a string and "off", "on",
 # "yes" and "no" are booleans. Scenes and --set values use exponents freely,
@@ -68,28 +104,96 @@ _UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _YAML12_FLOAT,
 _UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:bool", _YAML12_BOOL, list("tTfF"))
 
 
+def _expanded_nodes(root) -> int:
+    """Nodes the document would have with every alias expanded, without expanding it.
+
+    Aliases share node objects, so sizes are memoised per object; a node
+    that contains itself (a recursive alias) is reported as unbounded.
+    """
+    sizes: dict[int, int] = {}
+    # Post-order walk with an explicit stack: depth is bounded already, but
+    # the walk must not recurse on a pathological graph either.
+    stack = [(root, False)]
+    visiting: set[int] = set()
+    while stack:
+        node, done = stack.pop()
+        key = id(node)
+        if key in sizes:
+            continue
+        children = []
+        if isinstance(node, yaml.SequenceNode):
+            children = node.value
+        elif isinstance(node, yaml.MappingNode):
+            children = [child for pair in node.value for child in pair]
+        if done:
+            visiting.discard(key)
+            sizes[key] = min(MAX_YAML_NODES + 1, 1 + sum(sizes[id(c)] for c in children))
+            continue
+        if key in visiting:
+            return MAX_YAML_NODES + 1  # recursive: infinite once expanded
+        visiting.add(key)
+        stack.append((node, True))
+        stack.extend((child, False) for child in children if id(child) not in sizes)
+    return sizes[id(root)]
+
+
 def _load_yaml_text(text: str):
-    return yaml.load(text, Loader=_UniqueKeyLoader)
+    loader = _UniqueKeyLoader(text)
+    try:
+        root = loader.get_single_node()
+        if root is None:
+            return None
+        nodes = _expanded_nodes(root)
+        if nodes > MAX_YAML_NODES:
+            raise yaml.composer.ComposerError(
+                None, None, f"expands to more than {MAX_YAML_NODES} values (aliases of aliases?)", root.start_mark
+            )
+        return loader.construct_document(root)
+    finally:
+        loader.dispose()
+
+
+def _yaml_error_text(exc: Exception) -> str:
+    """``line N: YAML error: problem`` of a PyYAML error, in one short line."""
+    mark = getattr(exc, "problem_mark", None)
+    where = f"line {mark.line + 1}: " if mark is not None else ""
+    problem = getattr(exc, "problem", None) or (str(exc).splitlines() or [type(exc).__name__])[0]
+    return f"{where}YAML error: {clip(problem, 120)}"
+
+
+def _read_scene_text(path: Path) -> str:
+    """A scene file's text: a regular file of at most :data:`MAX_SCENE_BYTES`, UTF-8."""
+    try:
+        info = path.stat()
+    except FileNotFoundError:
+        raise SceneError(f"{path}: scene file not found") from None
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read scene file ({exc.strerror})") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise SceneError(f"{path}: is a directory, not a scene file")
+    if not stat.S_ISREG(info.st_mode):
+        raise SceneError(f"{path}: not a regular file (a device, pipe or socket cannot be a scene file)")
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_SCENE_BYTES + 1)
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read scene file ({exc.strerror})") from None
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError(f"{path}: larger than {MAX_SCENE_BYTES // 1024} KiB; a scene file is a few kB of YAML")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{path}: not UTF-8 text (byte {exc.start})") from None
 
 
 def read_yaml(path: Union[str, Path]) -> dict:
     """Read a scene file into a dict, with one-line errors naming the file."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SceneError(f"{path}: scene file not found") from None
-    except IsADirectoryError:
-        raise SceneError(f"{path}: is a directory, not a scene file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{path}: cannot read scene file ({exc.__class__.__name__}: {exc})") from None
+    text = _read_scene_text(path)
     try:
         data = _load_yaml_text(text)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}: " if mark is not None else ""
-        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
-        raise SceneError(f"{path}: {where}YAML error: {problem}") from None
+        raise SceneError(f"{path}: {_yaml_error_text(exc)}") from None
     if data is None:
         raise SceneError(f"{path}: scene file is empty")
     if not isinstance(data, dict):
@@ -108,17 +212,18 @@ def parse_overrides(overrides: Iterable[str]) -> dict:
         key, sep, text = item.partition("=")
         key = key.strip()
         if not sep or not key or any(not part for part in key.split(".")):
-            raise SceneError(f"--set {item!r}: expected KEY=VALUE, e.g. camera.exposure_us=50")
+            raise SceneError(f"--set {short_repr(item)}: expected KEY=VALUE, e.g. camera.exposure_us=50")
         try:
             value = _load_yaml_text(text) if text.strip() else None
-        except (yaml.YAMLError, ValueError):
-            raise SceneError(f"--set {item!r}: cannot parse the value {text!r}") from None
+        except (yaml.YAMLError, ValueError) as exc:
+            raise SceneError(f"--set {short_repr(item)}: cannot parse the value ({_yaml_error_text(exc)})") from None
         node = tree
         parts = key.split(".")
         for depth, part in enumerate(parts[:-1]):
             node = node.setdefault(part, {})
             if not isinstance(node, dict):
-                raise SceneError(f"--set {item!r}: {'.'.join(parts[: depth + 1])} is set to a value, not a section")
+                raise SceneError(f"--set {short_repr(item)}: {clip('.'.join(parts[: depth + 1]))} is set to a value, "
+                                 "not a section")
         node[parts[-1]] = value
     return tree
 
@@ -169,10 +274,14 @@ def resolve_layers(file_data: Mapping, overrides: Mapping, source: str) -> tuple
             preset_name = layer["preset"]
     layers = []
     if preset_name is not None:
-        if preset_name not in PRESETS:
-            close = difflib.get_close_matches(str(preset_name), PRESETS, n=1, cutoff=0.0)
+        if not isinstance(preset_name, str):
+            errors.append(f"{source}: camera.preset = {short_repr(preset_name)}: must be a preset name "
+                          f"({', '.join(PRESETS)}) or null")
+            preset_name = None
+        elif preset_name not in PRESETS:
+            close = difflib.get_close_matches(preset_name, PRESETS, n=1, cutoff=0.0)
             errors.append(
-                f"{source}: camera.preset = {preset_name!r}: unknown preset; did you mean {close[0]!r}? "
+                f"{source}: camera.preset = {short_repr(preset_name)}: unknown preset; did you mean {close[0]!r}? "
                 f"(presets: {', '.join(PRESETS)})"
             )
         else:
@@ -185,21 +294,32 @@ def resolve_layers(file_data: Mapping, overrides: Mapping, source: str) -> tuple
 
     data = _merge(dict(file_data), {k: v for k, v in overrides.items() if k not in ("camera", "effects")})
     data["camera"] = camera
-    effects = normalise_effects(file_data.get("effects"))
-    if "effects" in overrides:
-        set_effects = overrides["effects"]
-        if isinstance(set_effects, Mapping):
-            for name, params in set_effects.items():
-                if params is False:
-                    effects.pop(name, None)
-                elif isinstance(params, Mapping) and isinstance(effects.get(name), dict):
-                    effects[name] = _merge(effects[name], params)
-                else:
-                    effects[name] = {} if params is None or params is True else params
-        else:
-            effects = normalise_effects(set_effects)
-    data["effects"] = effects
+    try:
+        data["effects"] = _merge_effects(file_data.get("effects"), overrides)
+    except SceneError as exc:
+        errors += [f"{source}: {line}" for line in exc.lines]
+        data["effects"] = {}
     return data, errors
+
+
+def _merge_effects(file_effects, overrides: Mapping):
+    """The scene file's effects with ``--set effects…`` applied."""
+    effects = normalise_effects(file_effects)
+    if "effects" not in overrides:
+        return effects
+    set_effects = overrides["effects"]
+    if not isinstance(set_effects, Mapping):
+        return normalise_effects(set_effects)
+    if not isinstance(effects, dict):
+        return effects  # not a mapping: validation names the problem
+    for name, params in set_effects.items():
+        if params is False:
+            effects.pop(name, None)
+        elif isinstance(params, Mapping) and isinstance(effects.get(name), dict):
+            effects[name] = _merge(effects[name], params)
+        else:
+            effects[name] = {} if params is None or params is True else params
+    return effects
 
 
 # ---------------------------------------------------------------- error lines
@@ -250,8 +370,7 @@ def _range_text(loc: tuple) -> str:
 
 
 def _format_value(value) -> str:
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
+    return short_repr(value)
 
 
 _TYPE_WORDS = {
@@ -268,13 +387,13 @@ _TYPE_WORDS = {
 
 def _error_line(error: dict, source: str) -> str:
     loc = tuple(error["loc"])
-    path = ".".join(str(part) for part in loc)
+    path = clip(".".join(clip(str(part), 40) for part in loc), 120)
     kind = error["type"]
     value = error.get("input")
     if kind == "extra_forbidden":
         model = _model_at(loc)
         valid = list(model.model_fields) if model is not None else []
-        close = difflib.get_close_matches(str(loc[-1]), valid, n=1, cutoff=0.0)
+        close = difflib.get_close_matches(clip(str(loc[-1]), 40), valid, n=1, cutoff=0.0)
         hint = f"; did you mean {'.'.join(str(p) for p in loc[:-1] + (close[0],))!r}?" if close else ""
         return f"{source}: {path}: unknown key{hint}"
     if kind == "missing":
@@ -349,6 +468,43 @@ def consistency_errors(scene: Scene, source: str) -> list[str]:
     if cam.output == "rgb8" and scene.effects.bayer is None:
         errors.append(f"{source}: camera.output = 'rgb8': needs the bayer effect")
     errors += [f"{source}: {line}" for line in _temporal_effect_errors(scene)]
+    errors += [f"{source}: {line}" for line in run_span_errors(scene)]
+    return errors
+
+
+# Chip and row counters are int64 and their times float64: past 2**53 the
+# float no longer holds every integer, and a little further the int wraps.
+MAX_EXACT_COUNT = 2**53
+MIN_ROW_TIME_S = 1e-9
+
+
+def run_span_errors(scene: Scene) -> list[str]:
+    """Errors of a run that no real link could make, or that overflows 64-bit counters.
+
+    The run is the scene's ``frames`` frames (``--frames`` sets it). A chip
+    longer than the whole run sends nothing a frame could read; a run of
+    more than 2**53 chips or rows overflows the exact counters.
+    """
+    cam, link, errors = scene.camera, scene.link, []
+    if cam.row_time_s < MIN_ROW_TIME_S:
+        errors.append(f"camera.ifg_ratio = {cam.ifg_ratio!r}: gives a row time of "
+                      f"{cam.row_time_s * 1e9:.3g} ns; a sensor needs at least 1 ns per row")
+        return errors
+    run_s = scene.frames * cam.frame_period_s
+    if link.pattern in ("data", "square") and link.clock_hz * run_s < 1.0:
+        errors.append(
+            f"link.clock_hz = {_fmt_number(link.clock_hz)}: one chip lasts {1.0 / link.clock_hz:.3g} s, longer than "
+            f"the run of {scene.frames} frames ({run_s:.3g} s); allowed [{1.0 / run_s:.3g}, 1e+07] for this run"
+        )
+    span_s = run_s + cam.exposure_s + abs(link.start_offset_s)
+    chips, rows = span_s * link.clock_hz, span_s / cam.row_time_s
+    if chips > MAX_EXACT_COUNT or rows > MAX_EXACT_COUNT:
+        what, count = ("chips", chips) if chips > MAX_EXACT_COUNT else ("row times", rows)
+        limit = max(1, int(scene.frames * MAX_EXACT_COUNT / count))
+        errors.append(
+            f"frames = {scene.frames}: the run spans {count:.3g} {what}, beyond the 2**53 that 64-bit counters hold "
+            f"exactly; allowed frames [1, {limit}] for this camera and link"
+        )
     return errors
 
 

@@ -24,8 +24,10 @@ class Camera(_Section):
     preset: Optional[str] = None
     width_px: int = Field(ge=1, le=20000)
     height_px: int = Field(ge=1, le=20000)
-    frame_rate_hz: float = Field(gt=0, le=10000)
-    row_time_us: Optional[float] = Field(None, gt=0, le=1e5)
+    # A video camera takes a frame at least every 100 s, and no sensor reads
+    # a row in less than a nanosecond: slower or faster is not a link.
+    frame_rate_hz: float = Field(ge=0.01, le=10000)
+    row_time_us: Optional[float] = Field(None, ge=1e-3, le=1e5)
     ifg_ratio: Optional[float] = Field(None, ge=0, lt=1)
     exposure_us: float = Field(gt=0, le=1e7)
     iso: float = Field(gt=0, le=1e7)
