@@ -1,7 +1,10 @@
 """The ``rollsim`` command line.
 
 Bad input (a scene, an override, a path) prints one line per problem on
-stderr and exits with code 2; ``--debug`` shows the traceback instead.
+stderr and exits with code 2; an operating-system failure (a full disk, a
+read-only target) or an output that could not be committed prints one line
+and exits with 1; SIGINT and SIGTERM stop every worker, remove the staging
+area and exit with 128 + the signal. ``--debug`` shows the traceback instead.
 """
 
 from __future__ import annotations
@@ -9,14 +12,53 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import signal
 import sys
 from pathlib import Path
 from typing import Optional, Sequence
 
 from rollsim import __version__
-from rollsim.errors import RollsimError
+from rollsim.errors import EXIT_FAILURE, Interrupted, RollsimError, clip
 
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK = 0
+EXIT_BAD_INPUT = 2
+
+
+# ------------------------------------------------------------ option helpers
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (the usage is one ``--help`` away)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {clip(message, 300)} (see {self.prog} --help)\n")
+
+
+def _int_at_least(minimum: int, words: str, maximum: Optional[int] = None):
+    """An argparse type: an integer >= ``minimum`` (and <= ``maximum``)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text) if len(text) <= 30 else minimum - 1
+        except ValueError:
+            value = minimum - 1
+        if value < minimum or (maximum is not None and value > maximum):
+            bound = f" up to {maximum}" if maximum is not None else ""
+            raise argparse.ArgumentTypeError(f"expected a {words} integer{bound}, got {text[:40]!r}")
+        return value
+
+    return parse
+
+
+_positive_int = _int_at_least(1, "positive")
+_non_negative_int = _int_at_least(0, "non-negative")
+
+
+def _check_probability(name: str, value: Optional[float]) -> None:
+    """A probability option: a finite number in [0, 1] (NaN and inf refused)."""
+    if value is not None and not 0.0 <= value <= 1.0:
+        raise RollsimError(f"{name} = {value}: must be in [0, 1]")
 
 
 def _add_set_option(parser: argparse.ArgumentParser) -> None:
@@ -30,26 +72,91 @@ def _add_set_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_force(parser: argparse.ArgumentParser, what: str = "an existing output file") -> None:
+    parser.add_argument("--force", action="store_true", help=f"replace {what}")
+
+
+def _add_json_file(parser: argparse.ArgumentParser, help_text: str = "also write the figures as JSON") -> None:
+    parser.add_argument("--json", metavar="FILE", help=help_text)
+
+
 def _add_scene_output_options(parser: argparse.ArgumentParser) -> None:
     """SCENE, --out DIR and the options of commands that render a scene into a directory."""
     parser.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
     parser.add_argument("--out", required=True, metavar="DIR", help="output directory (must be empty, or use --force)")
     parser.add_argument("--frames", type=_positive_int, default=None, help="frame count (default: the scene's frames)")
-    parser.add_argument("--seed", type=int, default=None, help="override the scene seed")
-    parser.add_argument("--force", action="store_true", help="replace a non-empty output directory")
+    parser.add_argument("--seed", type=_non_negative_int, default=None, help="override the scene seed")
+    _add_force(parser, "a previous rollsim result in the output directory (never anything else)")
     parser.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
     parser.add_argument("--quiet", action="store_true", help="no progress")
     _add_set_option(parser)
 
 
+def _file_outputs(args) -> list:
+    """The file outputs a command was asked for (``--json FILE``, ``--plot``, ``--markdown``)."""
+    paths = [getattr(args, "json", None), getattr(args, "plot", None), getattr(args, "markdown", None)]
+    return [p for p in paths if isinstance(p, str)]
+
+
+def _check_outputs(args) -> None:
+    """Refuse unusable output files before any work."""
+    from rollsim.outputs import check_file_targets
+
+    check_file_targets(_file_outputs(args), getattr(args, "force", False))
+
+
+def _write_outputs(args, contents: dict) -> None:
+    """Write the command's output files, all or none (``{path: text or bytes}``)."""
+    from rollsim.outputs import write_files
+
+    contents = {path: data for path, data in contents.items() if path}
+    if contents:
+        write_files(contents, force=getattr(args, "force", False))
+
+
+def _json_text(payload) -> str:
+    return json.dumps(payload, indent=2, allow_nan=False) + "\n"
+
+
+def _scene_path(args) -> Optional[Path]:
+    """The scene file a command reads (an input the output must not hold)."""
+    from rollsim.scene.bundled import resolve_scene_path
+
+    path = resolve_scene_path(args.scene)
+    return path if path.exists() else None
+
+
+def _load_scene_args(args):
+    """The scene of a command: file or bundled name, ``--set``, ``--seed`` and ``--frames``."""
+    from rollsim.scene import load_scene
+
+    overrides = list(args.overrides)
+    if getattr(args, "seed", None) is not None:
+        overrides.append(f"seed={args.seed}")
+    if getattr(args, "frames", None) is not None:
+        # Through the scene, so that validation sees the run's real length.
+        overrides.append(f"frames={args.frames}")
+    return load_scene(args.scene, overrides)
+
+
+def _default_workers() -> int:
+    from rollsim.render.writer import default_workers
+
+    return default_workers()
+
+
+# ---------------------------------------------------------------- commands
+
+
 def cmd_scenes(args) -> int:
     """List the bundled scenes with their one-line descriptions."""
+    from rollsim.errors import clip
     from rollsim.scene import bundled_scene_paths, read_yaml
 
     paths = bundled_scene_paths()
     width = max((len(p.stem) for p in paths), default=0)
     for path in paths:
-        print(f"{path.stem:<{width}}  {read_yaml(path).get('description', '')}")
+        print(f"{path.stem:<{width}}  {clip(read_yaml(path).get('description', ''), 200)}")
     return EXIT_OK
 
 
@@ -80,15 +187,6 @@ def cmd_describe(args) -> int:
     return EXIT_OK
 
 
-def _load_scene_args(args):
-    from rollsim.scene import load_scene
-
-    overrides = list(args.overrides)
-    if getattr(args, "seed", None) is not None:
-        overrides.append(f"seed={args.seed}")
-    return load_scene(args.scene, overrides)
-
-
 def cmd_render(args) -> int:
     """Render a scene to PNG frames, truth.jsonl and scene.resolved.yaml."""
     from tqdm import tqdm
@@ -96,10 +194,10 @@ def cmd_render(args) -> int:
     from rollsim.render.writer import render_to_dir
 
     scene = _load_scene_args(args)
-    n_frames = args.frames if args.frames is not None else scene.frames
-    with tqdm(total=n_frames, unit="frame", desc="render", disable=args.quiet or None) as bar:
+    with tqdm(total=scene.frames, unit="frame", desc="render", disable=args.quiet or None) as bar:
         summary = render_to_dir(
-            scene, Path(args.out), n_frames, force=args.force, workers=args.workers, progress=lambda n: bar.update(1)
+            scene, Path(args.out), scene.frames, force=args.force, workers=args.workers,
+            progress=lambda n: bar.update(1), inputs=[_scene_path(args)],
         )
     print(f"wrote {summary.frames} frames of {scene.name} to {summary.out_dir} ({summary.workers} workers)")
     return EXIT_OK
@@ -153,8 +251,13 @@ def cmd_decode(args) -> int:
 def cmd_evaluate(args) -> int:
     """Give every emitted PHY-SDU its outcome; write outcomes.csv and evaluation.json."""
     from rollsim.evaluate import evaluate_directory, format_summary
+    from rollsim.outputs import is_staging
 
+    if is_staging(Path(args.dir)):
+        raise RollsimError(f"{args.dir}: the staging area of an unfinished run; evaluate a finished render directory")
     result = evaluate_directory(Path(args.dir), force=args.force)
+    for warning in result.summary.get("warnings", []):
+        print(f"rollsim: warning: {warning}", file=sys.stderr)
     print(format_summary(result.summary))
     return EXIT_OK
 
@@ -174,14 +277,17 @@ def cmd_estimate_row_time(args) -> int:
     """Row time of a camera from frames of an LED sending the square pattern."""
     from decoder import FrameReadError, RowTimeError, estimate_row_time, read_frame
 
+    from rollsim.decode import frame_pixel_limit
+
     if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
         raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
     skipped = []
+    max_pixels = frame_pixel_limit(workers=1)
 
     def readable_frames():
         for path in _png_paths(args.frames):
             try:
-                yield read_frame(path)
+                yield read_frame(path, max_pixels=max_pixels)
             except FrameReadError as exc:
                 skipped.append(str(exc))
                 print(f"rollsim: skipped frame: {exc}", file=sys.stderr)
@@ -192,8 +298,7 @@ def cmd_estimate_row_time(args) -> int:
         raise RollsimError(str(exc)) from None
     result = {"row_time_us": row_time_s * 1e6, "uncertainty_us": sigma_s * 1e6, "clock_hz": args.clock_hz,
               "frames_unreadable": len(skipped)}
-    if args.json:
-        _write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")
+    _write_outputs(args, {args.json: _json_text(result)})
     print(f"row time {row_time_s * 1e6:.4f} us +- {sigma_s * 1e6:.4f} us (1 sigma), {len(skipped)} frames unreadable")
     return EXIT_OK
 
@@ -204,8 +309,7 @@ def cmd_calibrate(args) -> int:
 
     result = calibrate(load_trace(Path(args.trace)), n_packets=args.n_packets)
     print(format_calibration(result))
-    if args.json:
-        _write_text(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n")
+    _write_outputs(args, {args.json: _json_text(result)})
     return EXIT_OK
 
 
@@ -217,7 +321,7 @@ def cmd_run(args) -> int:
     from rollsim.run import STAGES, run_scene
 
     scene = _load_scene_args(args)
-    n_frames = args.frames if args.frames is not None else scene.frames
+    n_frames = scene.frames
     bars: dict = {}
 
     def on_stage(stage: str, event: str) -> None:
@@ -237,7 +341,7 @@ def cmd_run(args) -> int:
 
     try:
         summary = run_scene(scene, Path(args.out), n_frames, force=args.force, workers=args.workers or _default_workers(),
-                            on_stage=on_stage, on_frame=on_frame, on_skipped=on_skipped)
+                            on_stage=on_stage, on_frame=on_frame, on_skipped=on_skipped, inputs=[_scene_path(args)])
     finally:
         for bar in bars.values():
             bar.close()
@@ -255,45 +359,43 @@ def cmd_run(args) -> int:
     return EXIT_OK
 
 
-def _default_workers() -> int:
-    from rollsim.render.writer import default_workers
-
-    return default_workers()
-
-
 def cmd_analytic(args) -> int:
     """Tables of p0 and P(message) against r under MMBP and Gilbert-Elliott."""
     import csv
 
-    from rollsim.channel.tables import COLUMNS, analytic_table, plot_analytic
+    from rollsim.channel.tables import COLUMNS, analytic_table, plot_analytic, ratio_splits
 
     if args.M + args.N < 1:
         raise RollsimError("--M + --N must be at least 1")
-    if not 0 <= args.p_e <= 1:
-        raise RollsimError(f"--p-e = {args.p_e}: must be in [0, 1]")
+    for name, value in (("--p-e", args.p_e), ("--p", args.p), ("--q", args.q)):
+        _check_probability(name, value)
     if (args.p is None) != (args.q is None):
         raise RollsimError("give both --p and --q, or neither (then p = M/(M+N), q = 1 - p, the paper's Eq. 1)")
+    if args.p is not None and args.p + args.q == 0:
+        raise RollsimError("--p + --q must be > 0 (with p = q = 0 the chain has no stationary state)")
+    if args.plot and Path(args.plot).suffix.lower() != ".png":
+        raise RollsimError(f"--plot {args.plot}: the plot is a PNG; give a file name ending in .png")
     r_values = range(1, args.r_max + 1)
-    rows = analytic_table(args.M, args.N, args.p_e, args.n_packets, r_values, args.p, args.q)
+    try:
+        rows = analytic_table(args.M, args.N, args.p_e, args.n_packets, r_values, args.p, args.q)
+    except ValueError as exc:
+        raise RollsimError(str(exc)) from None
+    contents = {}
     if args.json:
-        payload = {"M": args.M, "N": args.N, "p_e": args.p_e, "n_packets": args.n_packets, "rows": rows}
-        _write_text(args.json, json.dumps(payload, indent=2) + "\n")
+        contents[args.json] = _json_text({"M": args.M, "N": args.N, "p_e": args.p_e, "n_packets": args.n_packets,
+                                          "rows": rows})
     else:
         writer = csv.DictWriter(sys.stdout, fieldnames=COLUMNS, lineterminator="\n")
         writer.writeheader()
         for row in rows:
             writer.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in row.items()})
     if args.plot:
-        cycle = args.M + args.N
-        ratios = {(m, cycle - m): analytic_table(m, cycle - m, args.p_e, args.n_packets, r_values) for m in range(1, cycle)}
-        plot_analytic(rows, args.M, args.N, args.p_e, args.n_packets, args.plot, ratios)
+        from rollsim.outputs import figure_png
+
+        ratios = {(m, n): analytic_table(m, n, args.p_e, args.n_packets, r_values) for m, n in ratio_splits(args.M + args.N)}
+        contents[args.plot] = figure_png(lambda f: plot_analytic(rows, args.M, args.N, args.p_e, args.n_packets, f, ratios))
+    _write_outputs(args, contents)
     return EXIT_OK
-
-
-def _write_text(path: str, text: str) -> None:
-    from rollsim.outdir import write_text_atomic
-
-    write_text_atomic(Path(path), text)
 
 
 def cmd_bench(args) -> int:
@@ -319,8 +421,7 @@ def cmd_simulate(args) -> int:
         raise RollsimError(f"{scene.name}: {exc}") from None
     summary = result.summary()
     payload = to_camcomsim(result) if args.format == "camcomsim" else {"summary": summary}
-    if args.json:
-        _write_text(args.json, json.dumps(payload, indent=2, allow_nan=False) + "\n")
+    _write_outputs(args, {args.json: _json_text(payload)})
     print(_format_simulation(summary, args.channel))
     return EXIT_OK
 
@@ -340,46 +441,21 @@ def _format_simulation(summary: dict, channel: str) -> str:
     return "\n".join(lines)
 
 
-def _bench_eventsim_main(args) -> int:
-    from rollsim.bench.eventsim import main as bench_main
+def _bench_main(module: str):
+    """The ``main`` of ``rollsim.bench.<module>``, imported when the benchmark runs."""
 
-    return bench_main(args)
+    def run(args) -> int:
+        from importlib import import_module
 
+        return import_module(f"rollsim.bench.{module}").main(args)
 
-def _bench_render_main(args) -> int:
-    from rollsim.bench.render import main as bench_main
-
-    return bench_main(args)
-
-
-def _bench_decode_main(args) -> int:
-    from rollsim.bench.decode import main as bench_main
-
-    return bench_main(args)
+    return run
 
 
-def _bench_stress_main(args) -> int:
-    from rollsim.bench.stress import main as bench_main
-
-    return bench_main(args)
+# ------------------------------------------------------------------ parser
 
 
-def _bench_accuracy_main(args) -> int:
-    from rollsim.bench.accuracy import main as bench_main
-
-    return bench_main(args)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="rollsim",
-        description="Rolling-shutter camera simulator for optical camera communication.",
-    )
-    parser.add_argument("--version", action="version", version=f"rollsim {__version__}")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks for errors")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    sub.required = True
-
+def _add_scene_commands(sub) -> None:
     p = sub.add_parser("scenes", help="list the bundled scenes")
     p.set_defaults(func=cmd_scenes)
 
@@ -391,10 +467,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("describe", help="summarise a scene's timing, PHY-SDU, schedule and waveform")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
     _add_set_option(p)
-    p.add_argument("--emissions", type=int, default=12, help="emissions of the schedule to list (default 12)")
+    p.add_argument("--emissions", type=_non_negative_int, default=12, help="emissions of the schedule to list (default 12)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.set_defaults(func=cmd_describe)
 
+
+def _add_pixel_commands(sub) -> None:
     p = sub.add_parser("render", help="render a scene to PNG frames with ground truth")
     _add_scene_output_options(p)
     p.set_defaults(func=cmd_render)
@@ -411,73 +489,101 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--row-time-us", type=float, default=None,
                    help="row time in us (overrides the scene; without a scene and without it, estimated from the frames)")
     p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
-    p.add_argument("--force", action="store_true", help="replace an existing decoded.jsonl")
+    _add_force(p, "existing decoded.jsonl and decode.json")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
     p.set_defaults(func=cmd_decode)
 
     p = sub.add_parser("evaluate", help="outcome of every emitted PHY-SDU against the truth: DIR/outcomes.csv, DIR/evaluation.json")
     p.add_argument("dir", metavar="DIR", help="a rendered and decoded directory")
-    p.add_argument("--force", action="store_true", help="replace existing outcomes.csv and evaluation.json")
+    _add_force(p, "existing outcomes.csv and evaluation.json")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("estimate-row-time", help="row time of a camera from frames of a square-wave LED")
     p.add_argument("frames", nargs="+", metavar="FRAMES", help="PNG frames, or directories of them")
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
-    p.add_argument("--json", metavar="FILE", help="also write the estimate as JSON")
+    _add_json_file(p, "also write the estimate as JSON")
+    _add_force(p)
     p.set_defaults(func=cmd_estimate_row_time)
 
     p = sub.add_parser("calibrate", help="fit MMBP (M, N, p_e) and Gilbert-Elliott models to an outcome trace")
     p.add_argument("trace", metavar="DIR|TRACE.csv", help="an evaluated render directory, or a CSV with a success column")
     p.add_argument("--n-packets", type=_positive_int, default=None,
                    help="N_p of the whole-message comparison (default: the scene's, else 50)")
-    p.add_argument("--json", metavar="FILE", help="also write every figure as JSON")
+    _add_json_file(p, "also write every figure as JSON")
+    _add_force(p)
     p.set_defaults(func=cmd_calibrate)
 
+
+def _add_channel_commands(sub) -> None:
     p = sub.add_parser("analytic", help="p0 and P(message) against r under MMBP and Gilbert-Elliott (paper Fig. 7-9)")
     p.add_argument("--M", type=_non_negative_int, default=5, help="ON slots per frame (default 5, paper Fig. 8)")
     p.add_argument("--N", type=_non_negative_int, default=2, help="OFF slots per frame (default 2)")
     p.add_argument("--p-e", type=float, default=0.001, help="PHY-SDU error rate in ON slots (default 0.001)")
     p.add_argument("--n-packets", type=_positive_int, default=50, help="packets in the message (default 50)")
-    p.add_argument("--r-max", type=_positive_int, default=10, help="largest r (default 10)")
+    p.add_argument("--r-max", type=_int_at_least(1, "positive", 10_000), default=10, help="largest r (default 10)")
     p.add_argument("--p", type=float, default=None, help="Gilbert-Elliott p (default M/(M+N))")
     p.add_argument("--q", type=float, default=None, help="Gilbert-Elliott q (default 1 - p)")
-    p.add_argument("--json", metavar="FILE", help="write JSON instead of CSV on stdout")
+    _add_json_file(p, "write JSON instead of CSV on stdout")
     p.add_argument("--plot", metavar="PNG", help="also save a plot like the paper's Fig. 7-9")
+    _add_force(p)
     p.set_defaults(func=cmd_analytic)
 
+    p = sub.add_parser("simulate", help="broadcast the scene's message over a channel model (CamComSim's job)")
+    p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
+    p.add_argument("--channel", choices=("mmbp", "timed", "camcomsim"), default="mmbp", help="channel model (default mmbp)")
+    p.add_argument("--runs", type=_positive_int, default=1000, help="independent runs (default 1000)")
+    p.add_argument("--seed", type=_non_negative_int, default=None, help="seed (default: the scene's)")
+    p.add_argument("--max-emissions", type=_positive_int, default=50_000, help="cap per run (default 50000, as in the paper)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
+    _add_json_file(p, "write the summary and parameters as JSON")
+    _add_force(p)
+    p.add_argument("--format", choices=("rollsim", "camcomsim"), default="rollsim",
+                   help="JSON field names: rollsim's, or CamComSim's (nbTxPhysdu, ...)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_set_option(p)
+    p.set_defaults(func=cmd_simulate)
+
+
+def _add_bench_commands(sub) -> None:
     bench = sub.add_parser("bench", help="benchmarks: speed and memory on this machine")
     bench_sub = bench.add_subparsers(dest="bench", metavar="BENCHMARK")
     bench_sub.required = True
-    p = bench_sub.add_parser("render", help="render ms/frame at 1080p, end-to-end frames/s, peak memory")
+
+    def add(name: str, help_text: str):
+        p = bench_sub.add_parser(name, help=help_text)
+        p.set_defaults(func=cmd_bench, bench_main=_bench_main(name))
+        return p
+
+    p = add("render", "render ms/frame at 1080p, end-to-end frames/s, peak memory")
     p.add_argument("--frames", type=_positive_int, default=20, help="frames timed per variant (default 20)")
     p.add_argument("--e2e-frames", type=_positive_int, default=120, help="frames of the end-to-end run (default 120)")
     p.add_argument("--rss-frames", type=_positive_int, nargs=2, default=[200, 2000], help="two frame counts for peak memory")
     p.add_argument("--workers", type=_positive_int, default=2, help="workers of the end-to-end runs (default 2)")
-    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
-    p.set_defaults(func=cmd_bench, bench_main=_bench_render_main)
-    p = bench_sub.add_parser("eventsim", help="event simulator: emissions/s, wall time and memory of the CamComSim workload")
+    _add_json_file(p)
+    _add_force(p)
+
+    p = add("eventsim", "event simulator: emissions/s, wall time and memory of the CamComSim workload")
     p.add_argument("--runs", type=_positive_int, default=1000, help="runs (default 1000)")
     p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
-    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
-    p.set_defaults(func=cmd_bench, bench_main=_bench_eventsim_main)
+    _add_json_file(p)
+    _add_force(p)
 
-    p = bench_sub.add_parser("decode", help="decoder ms per 1080p frame in memory (one core), and PNG read time")
+    p = add("decode", "decoder ms per 1080p frame in memory (one core), and PNG read time")
     p.add_argument("--frames", type=_positive_int, default=30, help="frames timed per scene (default 30)")
-    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
-    p.set_defaults(func=cmd_bench, bench_main=_bench_decode_main)
-    p = bench_sub.add_parser("stress", help="decoder outcome rates on the paper, stress and effect scenes (the README table)")
+    _add_json_file(p)
+    _add_force(p)
+
+    p = add("stress", "decoder outcome rates on the paper, stress and effect scenes (the README table)")
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: every bundled paper-, stress- and effect- scene)")
     p.add_argument("--frames", type=_positive_int, default=100, help="frames per scene (default 100)")
     p.add_argument("--workers", type=_positive_int, default=2, help="scenes in parallel (default 2)")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown")
-    p.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
-    p.set_defaults(func=cmd_bench, bench_main=_bench_stress_main)
-    p = bench_sub.add_parser(
-        "accuracy",
-        help="what accuracy costs: each fidelity setting against the most accurate one, in time, image error, "
-        "noise distribution, decode outcomes and the MMBP fit; and each effect's cost",
-    )
+    _add_json_file(p)
+    _add_force(p, "existing output files")
+
+    p = add("accuracy", "what accuracy costs: each fidelity setting against the most accurate one, in time, image "
+            "error, noise distribution, decode outcomes and the MMBP fit; and each effect's cost")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
     p.add_argument("--frames", type=_positive_int, default=30, help="frames per setting (default 30)")
     p.add_argument("--knobs", nargs="+", metavar="KNOB", default=None,
@@ -487,60 +593,93 @@ def build_parser() -> argparse.ArgumentParser:
                    help="effects whose own cost to measure (default all; the option alone: none)")
     p.add_argument("--out", metavar="DIR", default=None,
                    help="write accuracy.csv, effects_cost.csv, accuracy.json, accuracy.md and accuracy_pareto.png here")
-    p.add_argument("--force", action="store_true", help="replace those files if present")
+    _add_force(p, "those files if present")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     _add_set_option(p)
-    p.set_defaults(func=cmd_bench, bench_main=_bench_accuracy_main)
 
-    p = sub.add_parser("simulate", help="broadcast the scene's message over a channel model (CamComSim's job)")
-    p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
-    p.add_argument("--channel", choices=("mmbp", "timed", "camcomsim"), default="mmbp", help="channel model (default mmbp)")
-    p.add_argument("--runs", type=_positive_int, default=1000, help="independent runs (default 1000)")
-    p.add_argument("--seed", type=_non_negative_int, default=None, help="seed (default: the scene's)")
-    p.add_argument("--max-emissions", type=_positive_int, default=50_000, help="cap per run (default 50000, as in the paper)")
-    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
-    p.add_argument("--json", metavar="FILE", help="write the summary and parameters as JSON")
-    p.add_argument("--format", choices=("rollsim", "camcomsim"), default="rollsim",
-                   help="JSON field names: rollsim's, or CamComSim's (nbTxPhysdu, ...)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    _add_set_option(p)
-    p.set_defaults(func=cmd_simulate)
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="rollsim",
+        description="Rolling-shutter camera simulator for optical camera communication.",
+    )
+    parser.add_argument("--version", action="version", version=f"rollsim {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks for errors")
+    parser.add_argument("--memory-limit", metavar="SIZE", default=None,
+                        help="memory budget (e.g. 4G, 500M); inputs that need more are refused before any work "
+                        "(default: $ROLLSIM_MEMORY_LIMIT, else half the available memory)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    _add_scene_commands(sub)
+    _add_pixel_commands(sub)
+    _add_channel_commands(sub)
+    _add_bench_commands(sub)
     return parser
 
 
-def _int_at_least(minimum: int, words: str):
-    """An argparse type: an integer >= ``minimum``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            value = minimum - 1
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"expected a {words} integer, got {text!r}")
-        return value
-
-    return parse
+# -------------------------------------------------------------------- main
 
 
-_positive_int = _int_at_least(1, "positive")
-_non_negative_int = _int_at_least(0, "non-negative")
+def _report(lines: Sequence[str]) -> None:
+    for line in lines:
+        print(f"rollsim: error: {line}", file=sys.stderr)
+
+
+def _run(args) -> int:
+    from rollsim.budget import ENV_VAR, parse_size
+
+    if args.memory_limit is not None:
+        # In the environment, so that worker processes keep to it too.
+        os.environ[ENV_VAR] = str(parse_size(args.memory_limit, "--memory-limit"))
+    _check_outputs(args)
+    return args.func(args)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``rollsim`` console script."""
+    from rollsim import signals
+    from rollsim.budget import ENV_VAR
+    from rollsim.outputs import describe_os_error
+
     args = build_parser().parse_args(argv)
+    saved_limit = os.environ.get(ENV_VAR)
+    saved_handlers = signals.install_handlers()
     try:
-        return args.func(args)
+        return _run(args)
     except RollsimError as exc:
         if args.debug:
             raise
-        for line in exc.lines:
-            print(f"rollsim: error: {line}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+        _report(exc.lines)
+        return exc.exit_code
+    except Interrupted as exc:
+        print(f"rollsim: stopped by {signal.Signals(exc.signum).name}; nothing was written", file=sys.stderr)
+        return 128 + exc.signum
     except KeyboardInterrupt:
-        print("rollsim: interrupted", file=sys.stderr)
-        return 130
+        print("rollsim: interrupted; nothing was written", file=sys.stderr)
+        return 128 + signal.SIGINT
+    except BrokenPipeError:
+        # The reader of our output went away (`rollsim analytic | head`):
+        # stop quietly, as command-line tools do.
+        with_devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(with_devnull, sys.stdout.fileno())
+        return 128 + signal.SIGPIPE
+    except MemoryError:
+        if args.debug:
+            raise
+        _report(["out of memory; lower the sizes or the workers, or set --memory-limit so that inputs this large "
+                 "are refused before they start"])
+        return EXIT_FAILURE
+    except OSError as exc:
+        if args.debug:
+            raise
+        _report([describe_os_error(exc)])
+        return EXIT_FAILURE
+    finally:
+        signals.restore_handlers(saved_handlers)
+        if saved_limit is None:
+            os.environ.pop(ENV_VAR, None)
+        else:
+            os.environ[ENV_VAR] = saved_limit
 
 
 if __name__ == "__main__":

@@ -38,12 +38,14 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from rollsim.errors import RollsimError
+from rollsim.budget import check_file_size
+from rollsim.errors import RollsimError, clip, short_repr
 
 OUTCOMES = ("ok", "undetected_error", "corrupted", "missed", "not_visible")
 OUTCOME_COLUMNS = ("tx", "sequence", "outcome", "success", "frame", "fully_visible", "decodes", "start_s", "end_s")
@@ -70,6 +72,8 @@ class Evaluation:
 def read_jsonl(path: Path) -> list[dict]:
     """Records of a JSON-lines file, with one-line errors naming file and line."""
     path = Path(path)
+    # Parsed JSON takes about ten times the bytes of its text.
+    check_file_size(path, 10)
     try:
         lines = path.read_text(encoding="utf-8").splitlines()
     except FileNotFoundError:
@@ -226,9 +230,11 @@ def summarise(outcomes: list[dict], false_decodes: list, n_frames: int) -> dict:
 def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
     """Evaluate a decoded render directory; write ``outcomes.csv`` and ``evaluation.json``.
 
-    Reads ``truth.jsonl``, ``decoded.jsonl`` and ``scene.resolved.yaml`` (and
-    ``decode.json``, when present, for the frames that could not be read;
-    their count goes into the summary as ``frames_unreadable``).
+    Reads ``truth.jsonl``, ``decoded.jsonl``, ``scene.resolved.yaml`` and the
+    frame files (and ``decode.json``, when present, for the frames that
+    could not be read). They must describe the same frames
+    (:func:`check_consistency`); frames the decoder could not read are
+    scored as it saw them, with a warning and ``consistent: false``.
 
     Parameters
     ----------
@@ -239,10 +245,10 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
     Raises
     ------
     RollsimError
-        A missing or malformed input file (named), or an existing output
-        without ``force``.
+        A missing, malformed or inconsistent input file (named, with the
+        line), or an existing output without ``force``.
     """
-    from rollsim.outdir import refuse_existing, write_text_atomic
+    from rollsim.outputs import check_file_targets, staged_files
     from rollsim.scene import load_scene
     from rollsim.transmitter import transmitter_from_scene
 
@@ -256,7 +262,8 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
     if not decoded_file.exists():
         raise RollsimError(f"{decoded_file}: not found; run `rollsim decode {run_dir}` first")
     targets = (run_dir / "outcomes.csv", run_dir / "evaluation.json")
-    refuse_existing(targets, force)
+    check_file_targets(targets, force)
+    scene = load_scene(scene_file)
     truth_file = run_dir / "truth.jsonl"
     truth = read_jsonl(truth_file)
     check_records(truth, truth_file, TRUTH_FIELDS)
@@ -264,15 +271,82 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
         check_records(record["sdus"], truth_file, TRUTH_SDU_FIELDS, f"frame {record['frame']}: PHY-SDU")
     decoded = read_jsonl(decoded_file)
     check_records(decoded, decoded_file, DECODED_FIELDS)
-    result = evaluate(truth, decoded, transmitter_from_scene(load_scene(scene_file)))
-    unreadable = _unreadable_frames(run_dir / "decode.json")
+    decode_info = _decode_info(run_dir / "decode.json")
+    warnings = check_consistency(run_dir, truth, decoded, decode_info, scene.link.payload_bits)
+    result = evaluate(truth, decoded, transmitter_from_scene(scene))
+    unreadable = decode_info.get("unreadable", [])
     result.summary["frames_unreadable"] = len(unreadable)
+    result.summary["consistent"] = not warnings
+    result.summary["warnings"] = warnings
     report = {"summary": result.summary, "false_decodes": result.false_decodes, "unreadable": unreadable}
-    write_text_atomic(targets[0], outcomes_csv(result.outcomes))
-    write_text_atomic(targets[1], json.dumps(report, indent=2, allow_nan=False) + "\n")
+    with staged_files(targets, force) as files:
+        files.write(targets[0], outcomes_csv(result.outcomes))
+        files.write(targets[1], json.dumps(report, indent=2, allow_nan=False) + "\n")
     return result
 
 
+_BITS = re.compile(r"^[01]*$")
+
+
+def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], decode_info: dict,
+                      payload_bits: int) -> list[str]:
+    """Check that frames, truth and decoded records describe the same frames.
+
+    Errors (one line naming the file and line): an empty truth, truth
+    frames out of order, a frame file the truth lists but the directory
+    lacks, frame files the truth does not list (an unfinished render), a
+    ``decode.json`` that counted other frames, decoded records of frames the
+    truth does not list, and payload bits that are not ``payload_bits``
+    zeros and ones.
+
+    Returns
+    -------
+    list of str
+        Warnings: frames the decoder could not read. Their PHY-SDUs are
+        scored as missed, so the figures are not those of the whole render.
+    """
+    from decoder.pipeline import frame_index_from_name
+
+    truth_file, decoded_file = run_dir / "truth.jsonl", run_dir / "decoded.jsonl"
+    if not truth:
+        raise RollsimError(f"{truth_file}: empty; the render wrote no frame (re-render the directory)")
+    frames = [record["frame"] for record in truth]
+    for line, (before, frame) in enumerate(zip(frames, frames[1:]), start=2):
+        if frame <= before:
+            raise RollsimError(f"{truth_file}: line {line}: frame {frame} after frame {before}; frames must increase")
+    frame_dir = run_dir / "frames"
+    if not frame_dir.is_dir():
+        raise RollsimError(f"{frame_dir}: not found; evaluate checks the truth against the rendered frames")
+    on_disk = {}
+    for path in frame_dir.iterdir():
+        if path.suffix.lower() == ".png" and not path.name.startswith("."):
+            on_disk[frame_index_from_name(path.name, -1)] = path
+    for line, frame in enumerate(frames, start=1):
+        if frame not in on_disk:
+            raise RollsimError(f"{frame_dir}: no file for frame {frame} ({truth_file.name} line {line}); "
+                               "a frame was deleted or the directory was not written by one render")
+    extra = sorted(set(on_disk) - set(frames))
+    if extra:
+        raise RollsimError(f"{truth_file}: lists {len(frames)} frames but {frame_dir.name}/ holds {len(on_disk)} "
+                           f"({on_disk[extra[0]].name} has no truth line); the render did not finish")
+    counted = decode_info.get("frames")
+    if isinstance(counted, int) and counted != len(frames):
+        raise RollsimError(f"{run_dir / 'decode.json'}: the decode read {counted} frames but {truth_file.name} lists "
+                           f"{len(frames)}; decode again with --force")
+    known = set(frames)
+    for line, record in enumerate(decoded, start=1):
+        if record["frame"] not in known:
+            raise RollsimError(f"{decoded_file}: line {line}: frame {record['frame']} is not in {truth_file.name} "
+                               "(decoded from other frames?)")
+        bits = record["bits"]
+        if len(bits) != payload_bits or not _BITS.match(bits):
+            raise RollsimError(f"{decoded_file}: line {line}: bits = {clip(repr(bits), 40)}: expected {payload_bits} "
+                               "characters 0 or 1 (the payload bits)")
+    unreadable = decode_info.get("unreadable", [])
+    if unreadable:
+        return [f"{len(unreadable)} of {len(frames)} frames could not be read by the decoder (see decode.json); "
+                "their PHY-SDUs count as missed, so these figures are not those of the whole render"]
+    return []
 # Fields matching needs, with their JSON types ("number": finite int or float).
 DECODED_FIELDS = {"frame": "int", "first_row": "number", "last_row": "number", "sequence": "int", "bits": "str",
                   "check_ok": "bool"}
@@ -299,21 +373,22 @@ def check_records(records: list, path: Path, fields: dict, what: str = "record")
             if name not in record:
                 raise RollsimError(f"{path}: {what} {number}: missing {name}")
             if not _has_type(record[name], kind):
-                raise RollsimError(f"{path}: {what} {number}: {name} = {record[name]!r}: expected {kind}")
+                raise RollsimError(f"{path}: {what} {number}: {name} = {short_repr(record[name])}: expected {kind}")
 
 
-def _unreadable_frames(path: Path) -> list:
-    """The unreadable frames listed by ``decode.json`` (none if it is absent)."""
+def _decode_info(path: Path) -> dict:
+    """``decode.json`` (empty when absent: a decoder of the user's own wrote only ``decoded.jsonl``)."""
     if not path.exists():
-        return []
+        return {}
     try:
         info = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise RollsimError(f"{path}: cannot read as JSON ({exc})") from None
-    unreadable = info.get("unreadable", []) if isinstance(info, dict) else None
-    if not isinstance(unreadable, list):
+    if not isinstance(info, dict):
+        raise RollsimError(f"{path}: expected a JSON object")
+    if not isinstance(info.get("unreadable", []), list):
         raise RollsimError(f"{path}: unreadable: expected a list of frames")
-    return unreadable
+    return info
 
 
 def outcomes_csv(outcomes: list[dict]) -> str:

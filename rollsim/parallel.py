@@ -1,20 +1,66 @@
-"""Ordered, memory-bounded parallel map over chunks of work.
+"""Worker processes: one pool helper for every command, and an ordered,
+memory-bounded map over chunks of work.
 
 Rendering and decoding stream many frames through worker processes. Results
 must come back in order (truth lines, decoded records) and only a few chunks
 may be in flight at once, so that memory stays flat however long the run.
+
+Every pool is started by :func:`process_pool`, so that its workers leave
+SIGINT and SIGTERM to the main process, die with it (even under SIGKILL), and
+are killed at once when the command stops early (a signal, an error, a full
+disk): no orphan keeps a core busy.
 """
 
 from __future__ import annotations
 
+import contextlib
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, Iterator, Optional, Sequence
+
+from rollsim import signals
 
 
 def chunked(items: Sequence, size: int) -> Iterator[list]:
     """Consecutive slices of ``items`` of ``size`` (the last may be shorter)."""
     for first in range(0, len(items), size):
         yield list(items[first : first + size])
+
+
+def _init_worker(initializer: Optional[Callable], initargs: tuple) -> None:
+    signals.init_worker()
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def terminate(pool: ProcessPoolExecutor) -> None:
+    """Kill a pool's workers now, without waiting for their tasks."""
+    # The executor has no public way to stop running tasks before Python
+    # 3.14 (terminate_workers); its process table is the only handle.
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.kill()
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.join(timeout=1.0)
+
+
+@contextlib.contextmanager
+def process_pool(workers: int, initializer: Optional[Callable] = None, initargs: tuple = ()):
+    """A :class:`ProcessPoolExecutor` whose workers never outlive the command.
+
+    On a normal exit the pool waits for its tasks; on any exception
+    (including :class:`rollsim.errors.Interrupted` and the closing of a
+    generator that uses it) its workers are killed at once.
+    """
+    pool = ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(initializer, initargs))
+    try:
+        yield pool
+    except BaseException:
+        terminate(pool)
+        raise
+    pool.shutdown(wait=True)
 
 
 def ordered_chunk_map(
@@ -46,7 +92,7 @@ def ordered_chunk_map(
         for chunk in chunks:
             yield from function(chunk, *args)
         return
-    with ProcessPoolExecutor(workers, initializer=initializer, initargs=initargs) as pool:
+    with process_pool(workers, initializer, initargs) as pool:
         pending = []
         for chunk in chunks:
             pending.append(pool.submit(function, chunk, *args))

@@ -1,7 +1,7 @@
 """``rollsim run``: the whole loop on one scene.
 
 render → decode → evaluate → calibrate → report, into one output directory
-that appears only when every stage is done (:mod:`rollsim.outdir`):
+that appears only when every stage is done (:mod:`rollsim.outputs`):
 
 - ``frames/``, ``truth.jsonl``, ``scene.resolved.yaml`` (render)
 - ``decoded.jsonl``, ``decode.json`` (decode)
@@ -16,10 +16,10 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Callable, Iterable, Optional
 
 from rollsim.errors import RollsimError
-from rollsim.outdir import atomic_output_dir
+from rollsim.outputs import staged_directory
 
 STAGES = ("render", "decode", "evaluate", "calibrate", "report")
 
@@ -80,6 +80,7 @@ def run_scene(
     on_stage: Optional[Callable[[str, str], None]] = None,
     on_frame: Optional[Callable[[str, int], None]] = None,
     on_skipped: Optional[Callable[[dict], None]] = None,
+    inputs: Iterable = (),
 ) -> RunSummary:
     """Render, decode, evaluate, calibrate and report one scene.
 
@@ -99,6 +100,8 @@ def run_scene(
         ``on_frame(stage, frames_done)`` during render and decode.
     on_skipped : callable, optional
         Called with the record of each frame the decoder could not read.
+    inputs : iterable of path, optional
+        The command's input files, which ``out_dir`` must not hold.
 
     A trace the models cannot be fitted to (nothing decoded, a dark scene)
     still gives a run: everything but ``calibration.json``, with the reason
@@ -107,40 +110,42 @@ def run_scene(
     Raises
     ------
     RollsimError
-        An impossible scene or an unusable output directory; ``out_dir`` is
-        then left as it was.
+        An impossible scene, an unusable output directory, or (exit code 1)
+        an OS failure while writing; ``out_dir`` is then left as it was.
     """
     from rollsim.calibrate import calibrate, load_trace
     from rollsim.decode import decode_directory, settings_from_scene
     from rollsim.evaluate import evaluate_directory
-    from rollsim.outdir import write_text_atomic
     from rollsim.render import RenderPipeline
+    from rollsim.render.pipeline import check_render_memory
     from rollsim.render.writer import render_into
     from rollsim.report import write_report
 
     if n_frames < 1:
         raise ValueError(f"n_frames must be >= 1, got {n_frames}")
+    check_render_memory(scene, workers)
     RenderPipeline(scene)  # fail on an impossible scene before touching disk
     clock = _StageClock(on_stage)
 
     def progress(stage):
         return None if on_frame is None else (lambda done: on_frame(stage, done))
 
-    with atomic_output_dir(Path(out_dir), force) as partial:
-        clock.run("render", lambda: render_into(scene, partial, n_frames, workers, progress("render")))
+    with staged_directory(Path(out_dir), force, inputs) as staging:
+        clock.run("render", lambda: render_into(scene, staging, n_frames, workers, progress("render")))
         settings = settings_from_scene(scene)
-        clock.run("decode", lambda: decode_directory(partial, settings, workers=workers, on_error=on_skipped,
+        clock.run("decode", lambda: decode_directory(staging, settings, workers=workers, on_error=on_skipped,
                                                      progress=progress("decode")))
-        evaluation = clock.run("evaluate", lambda: evaluate_directory(partial))
+        evaluation = clock.run("evaluate", lambda: evaluate_directory(staging))
         try:
-            calibration = clock.run("calibrate", lambda: calibrate(load_trace(partial, source=str(out_dir))))
+            calibration = clock.run("calibrate", lambda: calibrate(load_trace(staging, source=str(out_dir))))
         except RollsimError as exc:
             # Nothing decoded (a dark or undecodable scene) is a finding, not
             # bad input: the run still reports what the decoder saw. A file's
             # error names the temporary directory: name the run's.
-            calibration, reason = None, str(exc).replace(str(partial), str(out_dir))
+            calibration, reason = None, str(exc).replace(str(staging), str(out_dir))
         else:
             reason = None
-            write_text_atomic(partial / "calibration.json", json.dumps(calibration, indent=2, allow_nan=False) + "\n")
-        clock.run("report", lambda: write_report(partial, scene, evaluation, calibration, clock.timings, reason))
+            (staging / "calibration.json").write_text(json.dumps(calibration, indent=2, allow_nan=False) + "\n",
+                                                      encoding="utf-8")
+        clock.run("report", lambda: write_report(staging, scene, evaluation, calibration, clock.timings, reason))
     return RunSummary(Path(out_dir), n_frames, evaluation.summary, calibration, clock.timings, reason)

@@ -217,3 +217,97 @@ def test_malformed_inputs_of_evaluate_are_one_line(rendered, tmp_path, capsys, t
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0]
     assert not (run / "outcomes.csv").exists()
+
+
+def _decoded_run(rendered, tmp_path):
+    run = copy_run(rendered, tmp_path)
+    assert main(["decode", str(run), "--quiet", "--workers", "1"]) == 0
+    return run
+
+
+def _evaluate_refused(run, capsys, *fragments):
+    assert main(["evaluate", str(run)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and all(f in err[0] for f in fragments), err
+    assert not (run / "outcomes.csv").exists() and not (run / "evaluation.json").exists()
+
+
+def test_evaluate_refuses_a_deleted_frame_file(rendered, tmp_path, capsys):
+    run = _decoded_run(rendered, tmp_path)
+    (run / "frames" / "frame_000003.png").unlink()
+    _evaluate_refused(run, capsys, "no file for frame 3", "truth.jsonl line 4")
+
+
+def test_evaluate_refuses_a_truth_shorter_than_the_frames(rendered, tmp_path, capsys):
+    # What a render killed before its truth was complete leaves.
+    run = _decoded_run(rendered, tmp_path)
+    lines = (run / "truth.jsonl").read_text().splitlines(keepends=True)
+    (run / "truth.jsonl").write_text("".join(lines[:5]))
+    _evaluate_refused(run, capsys, "lists 5 frames but frames/ holds 8", "frame_000005.png has no truth line",
+                      "did not finish")
+
+
+def test_evaluate_refuses_an_empty_truth(rendered, tmp_path, capsys):
+    run = _decoded_run(rendered, tmp_path)
+    (run / "truth.jsonl").write_text("")
+    _evaluate_refused(run, capsys, "truth.jsonl: empty")
+
+
+def test_evaluate_refuses_malformed_bits_naming_the_line(rendered, tmp_path, capsys):
+    run = _decoded_run(rendered, tmp_path)
+    records = read_jsonl(run / "decoded.jsonl")
+    records[1]["bits"] = "012x"
+    (run / "decoded.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    _evaluate_refused(run, capsys, "decoded.jsonl: line 2: bits = '012x'", "expected 19 characters 0 or 1")
+
+
+def test_evaluate_refuses_decodes_of_frames_the_truth_does_not_list(rendered, tmp_path, capsys):
+    run = _decoded_run(rendered, tmp_path)
+    records = read_jsonl(run / "decoded.jsonl")
+    records[-1]["frame"] = 99
+    (run / "decoded.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
+    _evaluate_refused(run, capsys, f"decoded.jsonl: line {len(records)}: frame 99 is not in truth.jsonl")
+
+
+def test_evaluate_refuses_a_decode_of_another_frame_count(rendered, tmp_path, capsys):
+    run = _decoded_run(rendered, tmp_path)
+    info = json.loads((run / "decode.json").read_text())
+    info["frames"] = 12
+    (run / "decode.json").write_text(json.dumps(info))
+    _evaluate_refused(run, capsys, "the decode read 12 frames but truth.jsonl lists 8")
+
+
+def test_evaluate_refuses_a_staging_area(rendered, tmp_path, capsys):
+    staging = tmp_path / ".paper.rollsim-0a7c9cdf-123-456-0123abcd.staging"
+    shutil.copytree(rendered, staging)
+    assert main(["evaluate", str(staging)]) == 2
+    assert "staging area of an unfinished run" in capsys.readouterr().err
+
+
+def test_evaluation_with_unreadable_frames_says_so(rendered, tmp_path, capsys):
+    run = copy_run(rendered, tmp_path)
+    frame_files(run)[4].write_bytes(b"junk")
+    assert main(["decode", str(run), "--quiet", "--workers", "1"]) == 0
+    capsys.readouterr()
+    assert main(["evaluate", str(run)]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("rollsim: warning: 1 of 8 frames could not be read")
+    summary = json.loads((run / "evaluation.json").read_text())["summary"]
+    assert summary["consistent"] is False and summary["warnings"]
+    shutil.rmtree(run)
+    run = _decoded_run(rendered, tmp_path)
+    assert main(["evaluate", str(run)]) == 0
+    assert json.loads((run / "evaluation.json").read_text())["summary"]["consistent"] is True
+
+
+def test_decode_interrupted_by_a_full_disk_leaves_nothing_and_reruns(rendered, tmp_path, capsys):
+    run = copy_run(rendered, tmp_path)
+    before = {p.name for p in run.iterdir()}
+    # A file-size limit of 1 kB: decoded.jsonl cannot be written whole.
+    from clitools import run_rollsim
+
+    result = run_rollsim("decode", run, "--quiet", "--workers", "1", cwd=tmp_path, file_size=1024)
+    assert result.returncode == 1 and "File too large" in result.stderr and "Traceback" not in result.stderr
+    assert {p.name for p in run.iterdir()} == before
+    assert main(["decode", str(run), "--quiet", "--workers", "1"]) == 0
+    assert (run / "decode.json").exists() and (run / "decoded.jsonl").exists()

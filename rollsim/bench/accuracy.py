@@ -547,30 +547,37 @@ def format_markdown(result: dict) -> str:
 
 
 def output_paths(out_dir: Path, force: bool) -> dict[str, Path]:
-    """The output files in ``out_dir``; refuses existing ones without ``force`` (before any work)."""
+    """The output files in ``out_dir``; refuses existing ones without ``force`` (before any work).
+
+    ``out_dir`` may be missing (its parent must exist): it is created when
+    the results are written.
+    """
+    from rollsim.outputs import check_file_targets
+
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise OutputError(f"{out_dir}: exists and is not a directory")
+    if not out_dir.exists() and not out_dir.resolve().parent.is_dir():
+        raise OutputError(f"{out_dir}: parent directory {out_dir.resolve().parent} does not exist")
     paths = {name: out_dir / name for name in OUTPUT_FILES}
-    present = [str(p) for p in paths.values() if p.exists()]
-    if present and not force:
-        raise OutputError(f"{', '.join(present)}: exists; use --force to replace")
+    if out_dir.exists():
+        check_file_targets(paths.values(), force)
     return paths
 
 
-def write_outputs(result: dict, paths: dict[str, Path]) -> None:
-    """CSV tables, JSON, Markdown tables and the Pareto plot, each written atomically."""
-    from rollsim.outdir import write_bytes_atomic, write_text_atomic
+def write_outputs(result: dict, paths: dict[str, Path], force: bool = False) -> None:
+    """CSV tables, JSON, Markdown tables and the Pareto plot, committed together."""
+    from rollsim.outputs import figure_png, write_files
     from rollsim.report.plots import plot_accuracy_pareto
 
-    next(iter(paths.values())).parent.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(paths["accuracy.csv"], to_csv(accuracy_rows(result), ACCURACY_COLUMNS))
-    write_text_atomic(paths["effects_cost.csv"], to_csv(result["effects_cost"], COST_COLUMNS))
-    write_text_atomic(paths["accuracy.json"], json.dumps(result, indent=2, allow_nan=False) + "\n")
-    write_text_atomic(paths["accuracy.md"], format_markdown(result) + "\n")
-    png = io.BytesIO()
-    plot_accuracy_pareto(result["knobs"], png)
-    write_bytes_atomic(paths["accuracy_pareto.png"], png.getvalue())
+    next(iter(paths.values())).parent.mkdir(exist_ok=True)
+    write_files({
+        paths["accuracy.csv"]: to_csv(accuracy_rows(result), ACCURACY_COLUMNS),
+        paths["effects_cost.csv"]: to_csv(result["effects_cost"], COST_COLUMNS),
+        paths["accuracy.json"]: json.dumps(result, indent=2, allow_nan=False) + "\n",
+        paths["accuracy.md"]: format_markdown(result) + "\n",
+        paths["accuracy_pareto.png"]: figure_png(lambda f: plot_accuracy_pareto(result["knobs"], f)),
+    }, force=force)
 
 
 def command_line(args) -> str:
@@ -604,6 +611,6 @@ def main(args) -> int:
     result = {"command": command_line(args), **result}
     print(format_accuracy(result))
     if paths is not None:
-        write_outputs(result, paths)
+        write_outputs(result, paths, force=args.force)
         print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0

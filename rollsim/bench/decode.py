@@ -67,10 +67,10 @@ def format_decode(result: dict) -> str:
 
 
 def main(args) -> int:
-    from rollsim.outdir import write_text_atomic
+    from rollsim.outputs import write_file
 
     result = bench_decode(args.frames)
     print(format_decode(result))
     if args.json:
-        write_text_atomic(Path(args.json), json.dumps(result, indent=2, allow_nan=False) + "\n")
+        write_file(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n", force=args.force)
     return 0

@@ -28,6 +28,7 @@ from pathlib import Path
 
 from rollsim.channel.channels import CamcomsimChannel
 from rollsim.channel.eventsim import simulate_broadcast
+from rollsim.outputs import write_file
 from rollsim.transmitter.schedule import Schedule
 
 WORKLOAD = {
@@ -153,6 +154,6 @@ def main(args) -> int:
     print(format_eventsim(result))
     path = getattr(args, "json", None)
     if path:
-        Path(path).write_text(json.dumps(result, indent=2) + "\n")
+        write_file(path, json.dumps(result, indent=2) + "\n", force=getattr(args, "force", False))
     return 0
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from rollsim.tables import format_table
 from rollsim.bench.common import machine, seconds_per_call
+from rollsim.outputs import write_file
 from rollsim.render import RenderPipeline
 from rollsim.render.writer import encode_png, render_to_dir
 from rollsim.scene import load_scene
@@ -107,5 +108,5 @@ def main(args) -> int:
     result = bench_render(frames=args.frames, e2e_frames=args.e2e_frames, rss_frames=tuple(args.rss_frames), workers=args.workers)
     print(format_render(result))
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2) + "\n")
+        write_file(args.json, json.dumps(result, indent=2) + "\n", force=args.force)
     return 0

@@ -8,12 +8,12 @@ parallel. The table it prints (``--markdown``) is the README's stress table.
 from __future__ import annotations
 
 import json
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from rollsim.tables import format_table, markdown_table
 from rollsim.bench.common import machine
 from rollsim.bench.outcomes import DecodedRun
+from rollsim.parallel import process_pool
 from rollsim.scene import bundled_scene_paths, load_scene, read_yaml
 
 # The scenes of the table by default: the paper's, the stress set and one
@@ -58,7 +58,7 @@ def bench_stress(scenes: list[str], n_frames: int, workers: int = 2, progress=No
     for name in scenes:
         load_scene(name)  # fail on a bad scene before any work
     rows = []
-    with ProcessPoolExecutor(max(1, workers)) as pool:
+    with process_pool(max(1, workers)) as pool:
         for name, description, summary in pool.map(_run_one, scenes, [n_frames] * len(scenes)):
             rows.append({"scene": name, "description": description, **summary})
             if progress is not None:
@@ -104,14 +104,12 @@ def format_markdown(result: dict) -> str:
 
 
 def main(args) -> int:
-    from rollsim.outdir import write_text_atomic
+    from rollsim.outputs import write_files
 
     scenes = args.scenes or default_scenes()
     result = bench_stress(scenes, args.frames, args.workers)
     print(f"rollsim bench stress: {args.frames} frames per scene, rendered, decoded and evaluated in memory")
     print(format_table(table_rows(result), HEADER))
-    if args.markdown:
-        write_text_atomic(Path(args.markdown), format_markdown(result) + "\n")
-    if args.json:
-        write_text_atomic(Path(args.json), json.dumps(result, indent=2, allow_nan=False) + "\n")
+    contents = {args.markdown: format_markdown(result) + "\n", args.json: json.dumps(result, indent=2, allow_nan=False) + "\n"}
+    write_files({path: text for path, text in contents.items() if path}, force=args.force)
     return 0

@@ -42,6 +42,22 @@ def ge_from_mmbp(M: int, N: int) -> tuple[float, float]:
     return p, 1.0 - p
 
 
+def ratio_splits(cycle: int, most: int = 6) -> list[tuple[int, int]]:
+    """At most ``most`` splits ``(M, N)`` of a cycle of ``cycle`` slots, M from 1 to cycle − 1.
+
+    Every split of a short cycle (the paper's Fig. 9 right: M + N = 7);
+    evenly spaced ones of a long cycle, so that a plot of M + N = 10**9 costs
+    a few curves, not a billion.
+    """
+    if cycle < 2:
+        return []
+    if cycle - 1 <= most:
+        ms = range(1, cycle)
+    else:
+        ms = sorted({round(1 + k * (cycle - 2) / (most - 1)) for k in range(most)})
+    return [(m, cycle - m) for m in ms]
+
+
 def analytic_table(M: int, N: int, p_e: float, n_packets: int, r_values, p: Optional[float] = None, q: Optional[float] = None) -> list[dict]:
     """One row per r of every model's p0 and P(message) (see :data:`COLUMNS`).
 
@@ -118,5 +134,5 @@ def plot_analytic(rows: list[dict], M: int, N: int, p_e: float, n_packets: int, 
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, format="png")
     plt.close(fig)

@@ -14,13 +14,13 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator, Optional
+from typing import Callable, Iterable, Iterator, Optional
 
 import cv2
 
-from rollsim.outdir import atomic_output_dir
+from rollsim.outputs import staged_directory
 from rollsim.parallel import chunked, ordered_chunk_map
-from rollsim.render.pipeline import RenderPipeline
+from rollsim.render.pipeline import RenderPipeline, check_render_memory
 from rollsim.scene import scene_to_yaml
 
 FRAME_NAME = "frame_{:06d}.png"
@@ -89,12 +89,13 @@ def render_to_dir(
     force: bool = False,
     workers: Optional[int] = None,
     progress: Optional[Callable[[int], None]] = None,
+    inputs: Iterable = (),
 ) -> RenderSummary:
     """Render ``n_frames`` frames of ``scene`` into ``out_dir``.
 
     Writes ``frames/frame_000000.png`` …, ``truth.jsonl`` (one line per frame)
     and ``scene.resolved.yaml`` (every value after presets and overrides).
-    The directory appears only when complete (see :mod:`rollsim.outdir`).
+    The directory appears only when complete (see :mod:`rollsim.outputs`).
 
     Parameters
     ----------
@@ -102,18 +103,28 @@ def render_to_dir(
     out_dir : Path
     n_frames : int
     force : bool
-        Replace a non-empty ``out_dir``.
+        Replace a previous rollsim result in ``out_dir``.
     workers : int, optional
         Processes; default :func:`default_workers`.
     progress : callable, optional
         Called with the number of frames written after each frame.
+    inputs : iterable of path, optional
+        The command's input files, which ``out_dir`` must not hold.
+
+    Raises
+    ------
+    RollsimError
+        An unusable ``out_dir``, a frame too large for the memory budget, or
+        (exit code 1) an OS failure while writing: ``out_dir`` is then as it
+        was.
     """
     if n_frames < 1:
         raise ValueError(f"n_frames must be >= 1, got {n_frames}")
     workers = default_workers() if workers is None else max(1, int(workers))
+    check_render_memory(scene, workers)
     RenderPipeline(scene)  # fail on an impossible scene before touching disk
-    with atomic_output_dir(Path(out_dir), force) as partial:
-        render_into(scene, partial, n_frames, workers, progress)
+    with staged_directory(Path(out_dir), force, inputs) as staging:
+        render_into(scene, staging, n_frames, workers, progress)
     return RenderSummary(Path(out_dir), n_frames, workers)
 
 
@@ -121,7 +132,7 @@ def render_into(scene, directory: Path, n_frames: int, workers: int, progress: O
     """Write the frames, truth and resolved scene into an existing, empty ``directory``.
 
     The building block of :func:`render_to_dir`, for callers (``rollsim
-    run``) that own the atomic output directory themselves.
+    run``) that own the staged output directory themselves.
     """
     frames_dir = Path(directory) / "frames"
     frames_dir.mkdir()

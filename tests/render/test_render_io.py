@@ -48,16 +48,24 @@ def test_same_seed_is_byte_identical_for_any_worker_count_and_another_seed_diffe
     assert all(a[k] != c[k] for k in frames)
 
 
-def test_non_empty_output_needs_force(tmp_path, capsys):
+def test_non_empty_output_needs_force_and_force_replaces_only_rollsim_output(tmp_path, capsys):
     out = tmp_path / "run"
     out.mkdir()
     (out / "keep.txt").write_text("mine")
     assert main(["render", "paper-default", "--frames", "1", "--out", str(out), "--quiet", *SMALL]) == 2
     err = capsys.readouterr().err.splitlines()
-    assert err == [f"rollsim: error: {out}: directory is not empty; use --force to replace it"]
+    assert err == [f"rollsim: error: {out}: directory is not empty; use --force to replace a previous rollsim output"]
     assert (out / "keep.txt").read_text() == "mine" and not (out / "frames").exists()
-    assert main(["render", "paper-default", "--frames", "1", "--out", str(out), "--quiet", "--force", *SMALL]) == 0
-    assert (out / "frames" / "frame_000000.png").exists() and not (out / "keep.txt").exists()
+    # --force never deletes what rollsim did not write.
+    assert main(["render", "paper-default", "--frames", "1", "--out", str(out), "--quiet", "--force", *SMALL]) == 2
+    assert "not a rollsim output" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == ["keep.txt"] and (out / "keep.txt").read_text() == "mine"
+    # A previous rollsim result is replaced.
+    (out / "keep.txt").unlink()
+    assert main(["render", "paper-default", "--frames", "1", "--out", str(out), "--quiet", *SMALL]) == 0
+    assert main(["render", "paper-default", "--frames", "2", "--out", str(out), "--quiet", "--force", *SMALL]) == 0
+    assert sorted(p.name for p in (out / "frames").iterdir()) == ["frame_000000.png", "frame_000001.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
 @pytest.mark.skipif(os.geteuid() == 0, reason="root can write anywhere")

@@ -1,0 +1,97 @@
+"""SIGINT and SIGTERM: stop every worker, clean up, exit with 128 + the signal.
+
+The command's main process turns both signals into
+:class:`rollsim.errors.Interrupted`, an exception that unwinds the stack like
+:class:`KeyboardInterrupt`: worker pools kill their processes
+(:mod:`rollsim.parallel`), staging areas are removed (:mod:`rollsim.outputs`),
+and the CLI exits with ``128 + signum``. A second signal during that
+clean-up is ignored, so the clean-up finishes.
+
+Worker processes leave both signals to the main process (a terminal's
+Ctrl-C reaches the whole process group) and die with it, even when it is
+killed with SIGKILL, through Linux's parent-death signal.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import signal
+import sys
+import threading
+
+from rollsim.errors import Interrupted
+
+HANDLED = (signal.SIGINT, signal.SIGTERM)
+_PR_SET_PDEATHSIG = 1
+
+
+def _raise_interrupted(signum, frame):
+    # Later signals must not interrupt the clean-up this one starts.
+    for sig in HANDLED:
+        signal.signal(sig, signal.SIG_IGN)
+    raise Interrupted(signum)
+
+
+def install_handlers() -> dict:
+    """Make SIGINT and SIGTERM raise :class:`Interrupted` in the main thread.
+
+    Returns
+    -------
+    dict
+        The handlers replaced, for :func:`restore_handlers` (empty outside
+        the main thread, where Python cannot set handlers).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    saved = {sig: signal.getsignal(sig) for sig in HANDLED}
+    for sig in HANDLED:
+        signal.signal(sig, _raise_interrupted)
+    return saved
+
+
+def restore_handlers(saved: dict) -> None:
+    """Put back the handlers :func:`install_handlers` replaced."""
+    for sig, handler in saved.items():
+        if handler is not None:
+            signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def deferred():
+    """Hold SIGINT and SIGTERM back while the block runs.
+
+    For the few system calls that put a result in place: a signal between
+    them would leave neither the old output nor the new. A signal that
+    arrives meanwhile is delivered when the block ends.
+    """
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover - not POSIX
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, HANDLED)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
+def die_with_parent() -> None:
+    """Ask Linux to SIGKILL this process when its parent dies (no orphans)."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - no prctl
+        pass
+
+
+def init_worker() -> None:
+    """Signal set-up of a worker process: the main process owns SIGINT and SIGTERM."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    # Blocked signals are inherited across fork: a worker forked while the
+    # main process was committing an output must still die on SIGTERM.
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HANDLED)
+    die_with_parent()
