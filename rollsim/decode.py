@@ -123,8 +123,9 @@ def frame_files(directory: Path) -> list[Path]:
 
 
 # Peak bytes per pixel of one process decoding a frame, beyond the decoded
-# PNG itself: under 8 B/px measured (peak RSS, 12-megapixel gray and raw16
-# frames); doubled for colour frames and OpenCV's buffers.
+# image itself: 2.0 B/px measured for gray and 3.3 for RGB frames (peak
+# resident memory at 1920x1080); generous, because a real camera's frame
+# may hold several LED regions (tests/render/test_render_memory.py).
 DECODE_BYTES_PER_PIXEL = 24
 # The largest decoded PNG: RGBA, 16 bits per sample.
 _MAX_PNG_BYTES_PER_PIXEL = 8
