@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 import re
 import resource
+import stat
 from pathlib import Path
 from typing import Optional
 
@@ -144,6 +145,9 @@ def check_memory(what: str, estimate_bytes: float) -> None:
 def check_file_size(path: Path, bytes_per_file_byte: float, what: str = "") -> None:
     """Refuse to read ``path`` whole if its parsed form would exceed the budget.
 
+    A device, pipe or socket (``/dev/zero``) has no size to check and may
+    never end: it is refused too.
+
     Parameters
     ----------
     path : Path
@@ -154,7 +158,9 @@ def check_file_size(path: Path, bytes_per_file_byte: float, what: str = "") -> N
         How to name the file; default its path.
     """
     try:
-        size = Path(path).stat().st_size
+        info = Path(path).stat()
     except OSError:
         return  # the reader reports a missing or unreadable file itself
-    check_memory(f"{what or path} ({format_bytes(size)})", size * bytes_per_file_byte)
+    if not stat.S_ISREG(info.st_mode) and not stat.S_ISDIR(info.st_mode):
+        raise RollsimError(f"{what or path}: not a regular file (a device, pipe or socket cannot be read whole)")
+    check_memory(f"{what or path} ({format_bytes(info.st_size)})", info.st_size * bytes_per_file_byte)

@@ -232,8 +232,8 @@ def cmd_decode(args) -> int:
     from rollsim.decode import decode_directory, frame_files
 
     run_dir = Path(args.dir)
+    n_files = len(frame_files(run_dir))  # first: a missing directory is named as such
     settings = _decode_settings(args, run_dir)
-    n_files = len(frame_files(run_dir))
     workers = args.workers or _default_workers()
     with tqdm(total=n_files, unit="frame", desc="decode", disable=args.quiet or None) as bar:
         summary = decode_directory(

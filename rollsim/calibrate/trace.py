@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rollsim.budget import check_file_size
 from rollsim.errors import RollsimError
 
 _TRUE = {"1", "true", "True", "TRUE", "yes", "ok"}
@@ -60,6 +61,8 @@ def _parse_success(row: dict, path: Path, line: int) -> bool:
 def read_trace_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
     """``success`` and (if present) ``start_s`` columns of a trace CSV."""
     path = Path(path)
+    # A row becomes a dict of strings: about 20 bytes of memory per byte.
+    check_file_size(path, 20)
     try:
         with open(path, newline="", encoding="utf-8") as handle:
             reader = csv.DictReader(handle)
