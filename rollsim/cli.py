@@ -441,6 +441,54 @@ def _format_simulation(summary: dict, channel: str) -> str:
     return "\n".join(lines)
 
 
+def cmd_sweep(args) -> int:
+    """Run a sweep of a scene over a grid of keys, on Dask."""
+    from tqdm import tqdm
+
+    from rollsim.sweeps import run_sweep, spec_from_arguments
+    from rollsim.sweeps.journal import describe_progress
+
+    options = {"runs": args.runs, "frames": args.frames, "channel": args.channel, "seed": args.seed,
+               "max_emissions": args.max_emissions, "keep_frames": True if args.keep_frames else None}
+    spec = spec_from_arguments(args.scene, grid=args.grid, zipped=args.zip, overrides=args.overrides,
+                               stage=args.stage, options=options)
+    bar = None
+    state = {"done": 0, "total": 0}
+
+    def on_start(todo: int, total: int, client) -> None:
+        nonlocal bar
+        state["total"] = total
+        state["done"] = total - todo
+        link = getattr(client, "dashboard_link", None)
+        if link and not args.quiet:
+            print(f"rollsim: Dask dashboard: {link}", file=sys.stderr)
+        bar = tqdm(total=total, initial=total - todo, unit="cell", desc=f"sweep {spec.stage}",
+                   disable=args.quiet or None)
+
+    def progress(n: int) -> None:
+        state["done"] += n
+        bar.update(n)
+
+    try:
+        result = run_sweep(spec, Path(args.out), workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+                           force=args.force, progress=progress, on_start=on_start)
+    except Interrupted as exc:
+        if state["total"]:
+            exc.note = describe_progress(state["done"], state["total"], Path(args.out))
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+    ok = len(result.rows) - result.failed
+    print(f"{len(result.rows)} cells ({result.computed} computed now): {ok} ok, {result.failed} failed -> "
+          f"{result.out_dir / 'results.parquet'}, results.csv, report.md")
+    for row in result.rows:
+        if row["status"] != "ok":
+            print(f"  cell {row['cell']} failed: {row['error']}")
+            break
+    return EXIT_OK
+
+
 def _bench_main(module: str):
     """The ``main`` of ``rollsim.bench.<module>``, imported when the benchmark runs."""
 
@@ -545,6 +593,33 @@ def _add_channel_commands(sub) -> None:
     p.set_defaults(func=cmd_simulate)
 
 
+def _add_sweep_command(sub) -> None:
+    p = sub.add_parser("sweep", help="a scene over a grid of keys, on Dask: a table of every cell, plots, resume")
+    p.add_argument("scene", metavar="SCENE", help="scene file or bundled name, or a sweep file (YAML with scene and grid)")
+    p.add_argument("--grid", action="append", default=[], metavar="KEY=VALUES",
+                   help="a swept key: 5,10,15 or start:stop:step or geom:start:stop:count (repeatable: the product)")
+    p.add_argument("--zip", action="append", default=[], metavar="KEY=VALUES",
+                   help="keys varied together, equally many values each (repeatable)")
+    p.add_argument("--stage", choices=("analytic", "simulate", "run"), default=None,
+                   help="analytic (no rendering), simulate (event simulator) or run (pixel pipeline); default analytic")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--runs", type=_positive_int, default=None, help="simulate: runs per cell (default 1000)")
+    p.add_argument("--channel", choices=("mmbp", "timed", "camcomsim"), default=None,
+                   help="simulate: channel model (default mmbp)")
+    p.add_argument("--max-emissions", type=_positive_int, default=None, help="simulate: cap per run (default 50000)")
+    p.add_argument("--frames", type=_positive_int, default=None, help="run: frames per cell (default 100)")
+    p.add_argument("--keep-frames", action="store_true", help="run: also write each cell's PNG frames")
+    p.add_argument("--seed", type=_non_negative_int, default=None, help="sweep seed (default: the scene's)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                   help="a running Dask scheduler, e.g. tcp://10.0.0.1:8786, instead of a local cluster")
+    p.add_argument("--resume", action="store_true", help="continue the sweep in DIR: only missing or failed cells run")
+    _add_force(p, "a previous rollsim result in DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_set_option(p)
+    p.set_defaults(func=cmd_sweep)
+
+
 def _add_bench_commands(sub) -> None:
     bench = sub.add_parser("bench", help="benchmarks: speed and memory on this machine")
     bench_sub = bench.add_subparsers(dest="bench", metavar="BENCHMARK")
@@ -582,6 +657,12 @@ def _add_bench_commands(sub) -> None:
     _add_json_file(p)
     _add_force(p, "existing output files")
 
+    p = add("sweep", "sweep cost: analytic 10,000 cells, simulate 100 x 1,000 runs, run stage speed-up and overhead")
+    p.add_argument("--frames", type=_positive_int, default=100, help="frames per run-stage cell (default 100)")
+    p.add_argument("--repeats", type=_positive_int, default=3, help="run-stage repeats, 1 and 2 workers alternating (default 3)")
+    _add_json_file(p)
+    _add_force(p)
+
     p = add("accuracy", "what accuracy costs: each fidelity setting against the most accurate one, in time, image "
             "error, noise distribution, decode outcomes and the MMBP fit; and each effect's cost")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
@@ -613,6 +694,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene_commands(sub)
     _add_pixel_commands(sub)
     _add_channel_commands(sub)
+    _add_sweep_command(sub)
     _add_bench_commands(sub)
     return parser
 
@@ -652,7 +734,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         _report(exc.lines)
         return exc.exit_code
     except Interrupted as exc:
-        print(f"rollsim: stopped by {signal.Signals(exc.signum).name}; nothing was written", file=sys.stderr)
+        print(f"rollsim: stopped by {signal.Signals(exc.signum).name}; {exc.note}", file=sys.stderr)
         return 128 + exc.signum
     except KeyboardInterrupt:
         print("rollsim: interrupted; nothing was written", file=sys.stderr)

@@ -119,8 +119,11 @@ class Interrupted(BaseException):
     ----------
     signum : int
         The signal's number; the command exits with ``128 + signum``.
+    note : str
+        What the command leaves behind, for its last line.
     """
 
-    def __init__(self, signum: int):
+    def __init__(self, signum: int, note: str = "nothing was written"):
         self.signum = int(signum)
+        self.note = note
         super().__init__(signum)

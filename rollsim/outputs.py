@@ -37,6 +37,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import errno
+import fnmatch
 import hashlib
 import json
 import os
@@ -207,32 +208,59 @@ def _tree(directory: Path) -> tuple[list[str], list[str], list[str]]:
     return sorted(dirs), sorted(files), sorted(other)
 
 
-def write_manifest(directory: PathLike, updated: Iterable[str] = ()) -> None:
-    """Record what rollsim wrote into ``directory``.
+def write_manifest(directory: PathLike, patterns: Iterable[str] = ()) -> None:
+    """Record everything under ``directory`` as rollsim's (a result at its commit).
 
     Parameters
     ----------
     directory : path
-    updated : iterable of str, optional
-        Relative paths just written into a committed directory: only these
-        are added to its existing manifest (the rest keep their records).
-        Without it, the whole tree is recorded (a staging area at commit).
+    patterns : iterable of str, optional
+        :mod:`fnmatch` patterns of relative paths that rollsim owns whatever
+        their content, for a directory that grows as a run goes (a sweep's
+        journal of cells).
     """
     directory = Path(directory)
-    manifest = directory / MANIFEST_NAME
-    updated = list(updated)
-    if updated:
-        data = read_manifest(directory)
-        if data is None:
-            return  # not a rollsim output: nothing to keep up to date
-        for rel in updated:
-            data["files"][rel] = _file_record(directory / rel)
-    else:
-        dirs, files, _ = _tree(directory)
-        data = {"rollsim_output": 1, "dirs": dirs,
-                "files": {rel: _file_record(directory / rel) for rel in files if rel != MANIFEST_NAME}}
+    dirs, files, _ = _tree(directory)
+    data = {"rollsim_output": 1, "dirs": dirs, "patterns": sorted(patterns),
+            "files": {rel: _file_record(directory / rel) for rel in files if rel != MANIFEST_NAME}}
+    _save_manifest(directory, data)
+
+
+def _save_manifest(directory: Path, data: dict) -> None:
     text = json.dumps(data, indent=1, sort_keys=True) + "\n"
-    _write_and_replace(manifest, text.encode("utf-8"))
+    _write_and_replace(directory / MANIFEST_NAME, text.encode("utf-8"))
+
+
+def _manifest_root(path: Path, levels: int = 3) -> Optional[Path]:
+    """The nearest directory above ``path`` (at most ``levels`` up) that holds a manifest."""
+    for parent in list(path.parents)[:levels]:
+        if (parent / MANIFEST_NAME).is_file():
+            return parent
+    return None
+
+
+def record_files(paths: Iterable[Path]) -> None:
+    """Add files just committed into a rollsim output to its manifest (if they are in one)."""
+    roots: dict[Path, list[Path]] = {}
+    for path in paths:
+        root = _manifest_root(path)
+        if root is not None:
+            roots.setdefault(root, []).append(path)
+    for root, members in roots.items():
+        data = read_manifest(root)
+        if data is None:
+            continue
+        for path in members:
+            rel = path.relative_to(root).as_posix()
+            if not _owned_by_pattern(rel, data):  # a journal's files are owned already
+                data["files"][rel] = _file_record(path)
+                parts = rel.split("/")[:-1]
+                data["dirs"] = sorted(set(data["dirs"]) | {"/".join(parts[: k + 1]) for k in range(len(parts))})
+        _save_manifest(root, data)
+
+
+def _owned_by_pattern(rel: str, data: dict) -> bool:
+    return any(fnmatch.fnmatchcase(rel, pattern) for pattern in data.get("patterns", ()))
 
 
 def read_manifest(directory: PathLike) -> Optional[dict]:
@@ -257,9 +285,9 @@ def foreign_entries(directory: PathLike) -> list[str]:
     if data is None:
         return dirs + files + other
     known_dirs = set(data["dirs"])
-    foreign = [d for d in dirs if d not in known_dirs] + other
+    foreign = [d for d in dirs if d not in known_dirs and not _owned_by_pattern(d, data)] + other
     for rel in files:
-        if rel == MANIFEST_NAME:
+        if rel == MANIFEST_NAME or _owned_by_pattern(rel, data):
             continue
         record = data["files"].get(rel)
         if not isinstance(record, dict) or (directory / rel).stat().st_size != record.get("size"):
@@ -489,6 +517,40 @@ def _replace_directory(staging: Path, target: Path, shown: Path) -> None:
     shutil.rmtree(old)
 
 
+def create_directory(target: PathLike, force: bool = False, inputs: Iterable[PathLike] = (),
+                     patterns: Iterable[str] = ()) -> Path:
+    """Create an output directory that fills up as the work goes (a sweep's journal).
+
+    Unlike :func:`staged_directory`, the directory is the target from the
+    start, so that an interrupted run keeps what it committed; every file
+    goes into it through :func:`staged_files`. Its manifest owns the
+    ``patterns`` (what the run appends) and the files committed later.
+
+    Returns
+    -------
+    Path
+        The directory's real path.
+
+    Raises
+    ------
+    OutputError, SystemFailure
+        As :func:`check_directory_target`.
+    """
+    target = Path(target)
+    real = check_directory_target(target, force, inputs)
+    clear_stale(real)
+    with os_failures(target=target), signals.deferred():
+        if os.path.lexists(real) and any(real.iterdir()):
+            old = _sibling(real, "old")
+            os.rename(real, old)  # a previous rollsim result (checked): set aside, then removed
+            os.mkdir(real)
+            shutil.rmtree(old)
+        elif not os.path.lexists(real):
+            os.mkdir(real)
+        write_manifest(real, patterns)
+    return real
+
+
 def _make_staging(real: Path) -> Path:
     staging = _sibling(real, "staging")
     os.mkdir(staging)  # mode 0777 less the umask, unlike mkdtemp's 0700
@@ -644,7 +706,7 @@ class StagedFiles:
                 backup.unlink(missing_ok=True)
             for directory in {t.parent for t in self._staged}:
                 _fsync_dir(directory)
-                write_manifest(directory, [t.name for t in self._staged if t.parent == directory])
+            record_files(self._staged)
             self._staged.clear()
 
     def _place(self, tmp: Path, target: Path) -> None:

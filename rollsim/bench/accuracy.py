@@ -46,7 +46,7 @@ import numpy as np
 from rollsim.tables import format_table, markdown_table
 from rollsim.bench.common import machine
 from rollsim.bench.image_error import IMAGE_FIELDS, ImageError, data_range_of
-from rollsim.bench.outcomes import DecodedRun, fitted_mmbp
+from rollsim.stream import DecodedRun, fitted_mmbp
 from rollsim.bench.variants import (
     KNOBS,
     Knob,

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from rollsim.tables import format_table, markdown_table
 from rollsim.bench.common import machine
-from rollsim.bench.outcomes import DecodedRun
+from rollsim.stream import DecodedRun
 from rollsim.parallel import process_pool
 from rollsim.scene import bundled_scene_paths, load_scene, read_yaml
 

@@ -16,14 +16,15 @@ from rollsim.channel.eventsim import simulate_broadcast
 from rollsim.transmitter import Schedule
 
 
-def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_duration_s: float, max_starts: int = 500) -> dict:
-    """Mean goodput of RP(r) replayed over the trace from starts in its first half.
+def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_duration_s: float, max_starts: int = 500,
+                       strategy: str = "rp") -> dict:
+    """Mean goodput of RP(r) (or RS(r)) replayed over the trace from starts in its first half.
 
     Returns ``{"goodput_bps", "replays", "completed"}``; a replay that does
     not complete before the trace ends is left out (and counted).
     """
     x = np.asarray(success, dtype=bool)
-    schedule = Schedule("rp", n_packets, r)
+    schedule = Schedule(strategy, n_packets, r)
     horizon = x.size
     seq = schedule.sequence_numbers(np.arange(horizon))
     goodputs, incomplete = [], 0

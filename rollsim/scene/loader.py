@@ -12,12 +12,12 @@ is allowed, collected into a :class:`rollsim.errors.SceneError`.
 
 from __future__ import annotations
 
-import copy
 import difflib
 import re
 import stat
 from pathlib import Path
-from typing import Iterable, Mapping, Optional, Union, get_args
+from collections.abc import Iterable, Mapping
+from typing import Optional, Union, get_args
 
 import annotated_types
 import yaml
@@ -201,22 +201,63 @@ def read_yaml(path: Union[str, Path]) -> dict:
     return data
 
 
-def parse_overrides(overrides: Iterable[str]) -> dict:
+def parse_yaml_scalar(text: str, what: str):
+    """A value written as YAML (``50``, ``1e-3``, ``rp``, ``[1, 2]``), as ``--set`` reads it.
+
+    Raises
+    ------
+    SceneError
+        Text that is not YAML, naming ``what``.
+    """
+    try:
+        return _load_yaml_text(text) if text.strip() else None
+    except (yaml.YAMLError, ValueError) as exc:
+        raise SceneError(f"{what}: cannot parse {short_repr(text)} ({_yaml_error_text(exc)})") from None
+
+
+def split_key_value(item: str, option: str, expected: str) -> tuple[str, str]:
+    """``"link.distance_cm=5"`` as ``("link.distance_cm", "5")``.
+
+    Raises
+    ------
+    SceneError
+        No ``=``, or a dotted key with an empty part, naming ``option`` and
+        what was ``expected``.
+    """
+    key, sep, text = item.partition("=")
+    key = key.strip()
+    if not sep or not key or any(not part for part in key.split(".")):
+        raise SceneError(f"{option} {short_repr(item)}: expected {expected}")
+    return key, text
+
+
+def parse_overrides(overrides: Iterable[str], values: Optional[Mapping] = None) -> dict:
     """Turn ``["camera.exposure_us=50", ...]`` into a nested dict.
 
     Values are parsed as YAML scalars or flow collections, so ``50``,
-    ``null``, ``true`` and ``[1, 2]`` keep their types.
+    ``null``, ``true`` and ``[1, 2]`` keep their types. ``values``
+    (``{"camera.exposure_us": 50, ...}``, already Python values) come after
+    them, without YAML: what a sweep's cells use.
     """
-    tree: dict = {}
+    pairs = []
     for item in overrides:
-        key, sep, text = item.partition("=")
-        key = key.strip()
-        if not sep or not key or any(not part for part in key.split(".")):
-            raise SceneError(f"--set {short_repr(item)}: expected KEY=VALUE, e.g. camera.exposure_us=50")
+        key, text = split_key_value(item, "--set", "KEY=VALUE, e.g. camera.exposure_us=50")
         try:
             value = _load_yaml_text(text) if text.strip() else None
         except (yaml.YAMLError, ValueError) as exc:
             raise SceneError(f"--set {short_repr(item)}: cannot parse the value ({_yaml_error_text(exc)})") from None
+        pairs.append((key, value, item))
+    for key, value in (values or {}).items():
+        if not key or any(not part for part in str(key).split(".")):
+            raise SceneError(f"{short_repr(key)}: expected a dotted scene key, e.g. camera.exposure_us")
+        pairs.append((str(key), value, f"{key}={short_repr(value)}"))
+    return _override_tree(pairs)
+
+
+def _override_tree(pairs: Iterable[tuple]) -> dict:
+    """Nested dict of ``(dotted key, value, how to name it)`` overrides."""
+    tree: dict = {}
+    for key, value, item in pairs:
         node = tree
         parts = key.split(".")
         for depth, part in enumerate(parts[:-1]):
@@ -229,13 +270,18 @@ def parse_overrides(overrides: Iterable[str]) -> dict:
 
 
 def _merge(base: dict, layer: Mapping) -> dict:
-    """Deep-merge ``layer`` over ``base`` (a new dict; mappings merge, values replace)."""
-    out = copy.deepcopy(base)
+    """Merge ``layer`` over ``base``: mappings merge, values replace.
+
+    Returns a new dict, and new dicts wherever both sides are mappings;
+    values taken whole are shared, not copied (nothing on the way to
+    validation changes them, and a sweep merges thousands of cells).
+    """
+    out = dict(base)
     for key, value in layer.items():
         if isinstance(value, Mapping) and isinstance(out.get(key), dict):
             out[key] = _merge(out[key], value)
         else:
-            out[key] = copy.deepcopy(value)
+            out[key] = value
     return out
 
 
@@ -520,7 +566,8 @@ def _temporal_effect_errors(scene: Scene) -> list[str]:
 # ------------------------------------------------------------------ entry points
 
 
-def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[str] = ()) -> Scene:
+def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[str] = (),
+                    values: Optional[Mapping] = None) -> Scene:
     """Validate a scene given as a dict (as read from YAML).
 
     Parameters
@@ -531,6 +578,8 @@ def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[
         Name used in error lines (usually the file path).
     overrides : iterable of str
         ``KEY=VALUE`` overrides, as ``--set`` takes them.
+    values : mapping, optional
+        ``{dotted key: value}`` overrides after those, as Python values.
 
     Raises
     ------
@@ -539,7 +588,7 @@ def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[
     """
     if not isinstance(data, Mapping):
         raise SceneError(f"{source}: a scene must be a mapping of keys, got {type(data).__name__}")
-    merged, errors = resolve_layers(data, parse_overrides(overrides), source)
+    merged, errors = resolve_layers(data, parse_overrides(overrides, values), source)
     if errors:
         raise SceneError(errors)
     try:

@@ -1,10 +1,11 @@
-"""Render, decode and evaluate frames in memory: the loop the benchmarks share.
+"""Render, decode and evaluate frames in memory, without PNG files.
 
 :class:`DecodedRun` renders a pipeline's frames one at a time, decodes each
 and keeps only the truth records and decoded records (constant memory in the
 images); :meth:`DecodedRun.evaluation` then gives every emitted PHY-SDU its
-outcome. ``rollsim bench stress`` runs one scene through it; ``rollsim bench
-accuracy`` runs several fidelity settings side by side, a frame at a time.
+outcome. The ``run`` stage of a sweep runs each cell through it; ``rollsim
+bench stress`` one scene; ``rollsim bench accuracy`` several fidelity
+settings side by side, a frame at a time.
 """
 
 from __future__ import annotations
