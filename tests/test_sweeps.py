@@ -335,3 +335,20 @@ def test_python_api_returns_a_dataframe(tmp_path, client):
     table = rollsim.sweep("paper-default", grid={"link.distance_cm": [5, 10]}, out=tmp_path / "api", client=client)
     assert list(table["M"]) == [3, 1] and table.attrs["sweep_dir"] == str(tmp_path / "api")
     assert list(table.columns[:2]) == ["cell", "link.distance_cm"]
+
+
+@pytest.mark.parametrize("grid, kind", [
+    (["link.distance_cm=5:15:5"], "line"),
+    (["link.distance_cm=5,10", "link.repeats=1,2", "channel.p_e=0.001,0.01"], "small multiples"),
+])
+def test_report_has_a_plot_per_figure_for_any_number_of_axes(tmp_path, client, grid, kind):
+    spec = spec_from_arguments("paper-default", grid=grid)
+    run_sweep(spec, tmp_path / "out", client=client)
+    report = (tmp_path / "out" / "report.md").read_text()
+    plots = sorted((tmp_path / "out" / "plots").glob("*.png"))
+    assert {p.stem for p in plots} >= {"goodput_rp_bps", "p_message_rs", "M", "N", "roi_ratio"}
+    assert all(p.read_bytes().startswith(b"\x89PNG") for p in plots)
+    assert all(f"![{p.stem}](plots/{p.name})" in report for p in plots)
+    from rollsim.outputs import foreign_entries
+
+    assert foreign_entries(tmp_path / "out") == []  # everything in it is the sweep's own
