@@ -403,25 +403,56 @@ def cmd_bench(args) -> int:
     return args.bench_main(args)
 
 
+def _simulation_warning(text: str) -> None:
+    print(f"rollsim: warning: {text}", file=sys.stderr)
+
+
 def cmd_simulate(args) -> int:
-    """Broadcast the scene's message over a channel model, in many runs."""
+    """Broadcast the scene's message over a channel model, in many runs.
+
+    The scene is loaded with the rules the channel does without relaxed
+    (``scene_relaxations``: for ``camcomsim``, sequence numbers that wrap
+    and distances down to 0), each relaxation in use said in a warning.
+    ``--format camcomsim`` writes CamComSim's own result file (a bare list
+    of per-run objects, compact as CamComSim writes it).
+    """
     from tqdm import tqdm
 
-    from rollsim.channel.eventsim import to_camcomsim
-    from rollsim.channel.scene_channel import simulate_scene
+    from rollsim.channel.eventsim import simulate_broadcast, to_camcomsim
+    from rollsim.channel.scene_channel import broadcast_from_scene, camcomsim_parameters, scene_relaxations
+    from rollsim.scene import load_scene
 
-    scene = _load_scene_args(args)
+    camcomsim_file = args.format == "camcomsim"
+    if camcomsim_file and not args.json:
+        raise RollsimError("--format camcomsim: sets the layout of the JSON file; give --json FILE too")
+    overrides = [*args.overrides, *([f"seed={args.seed}"] if args.seed is not None else [])]
+    scene = load_scene(args.scene, overrides, relax=scene_relaxations(args.channel))
     try:
+        setup = broadcast_from_scene(scene, args.channel)
+        for warning in setup.warnings:
+            _simulation_warning(warning)
         with tqdm(total=args.runs, unit="run", desc=f"simulate {args.channel}", disable=args.quiet or None) as bar:
-            result = simulate_scene(
-                scene, args.channel, runs=args.runs, seed=args.seed, max_emissions=args.max_emissions,
-                workers=args.workers, progress=bar.update,
+            result = simulate_broadcast(
+                setup.channel, setup.schedule, header_bits=setup.header_bits, payload_bits=setup.payload_bits,
+                runs=args.runs, seed=scene.seed, max_emissions=args.max_emissions, workers=args.workers,
+                progress=bar.update, record_loss_streaks=camcomsim_file,
             )
     except ValueError as exc:
         raise RollsimError(f"{scene.name}: {exc}") from None
+    capped = result.runs - int(result.completed.sum())
+    if capped:
+        _simulation_warning(
+            f"{capped} of {result.runs} runs reached the cap of {result.max_emissions} emissions before the message "
+            "was complete; they count with goodput 0, as in CamComSim (paper sec. 6.3.1)"
+        )
     summary = result.summary()
-    payload = to_camcomsim(result) if args.format == "camcomsim" else {"summary": summary}
-    _write_outputs(args, {args.json: _json_text(payload)})
+    if camcomsim_file:
+        save_path = os.path.dirname(args.json) or "./"  # CamComSim's default directory
+        params = camcomsim_parameters(scene, result, save_path=save_path, verbose=0 if args.quiet else 1)
+        text = json.dumps(to_camcomsim(result, params), separators=(",", ":"), allow_nan=False) + "\n"
+    else:
+        text = _json_text({"summary": summary})
+    _write_outputs(args, {args.json: text})
     print(_format_simulation(summary, args.channel))
     return EXIT_OK
 
@@ -587,7 +618,8 @@ def _add_channel_commands(sub) -> None:
     _add_json_file(p, "write the summary and parameters as JSON")
     _add_force(p)
     p.add_argument("--format", choices=("rollsim", "camcomsim"), default="rollsim",
-                   help="JSON field names: rollsim's, or CamComSim's (nbTxPhysdu, ...)")
+                   help="layout of the --json file: rollsim's summary, or CamComSim's result file (a list of runs "
+                   "with nbTxPhysdu, ..., simuParams)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
     p.set_defaults(func=cmd_simulate)

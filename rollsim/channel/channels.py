@@ -605,8 +605,21 @@ class CamcomsimChannel:
       visible part always starts at slot 0 of the frame: the LED's rows
       sit at the top of the picture.
     * **Generation size counts packets.** ``G`` ("message size, bytes" in
-      Table 1) is compared with the count of distinct received PHY-SDUs,
-      so it is a number of packets; ``H`` and ``P`` are bits.
+      Table 1) is the number of PHY-SDUs CamComSim builds and compares with
+      the count of distinct received ones, so it is a number of packets;
+      ``H`` and ``P`` are bits. rollsim reads ``G`` as bytes on every
+      channel (``ceil(8 G / P)`` packets, see
+      :mod:`rollsim.channel.scene_channel`).
+    * **Packets told apart without sequence numbers.** CamComSim counts
+      distinct PHY-SDUs by object identity and fills the header with
+      random bytes, so ``H`` only lengthens the PHY-SDU: with too few
+      header bits, even 0, the sequence numbers a real header would carry
+      wrap and no packet is lost for it. This channel, like the whole event
+      simulator, tracks packets by index: such a scene loads for it alone
+      (:func:`rollsim.channel.scene_channel.scene_relaxations`).
+    * **Distance 0.** The ROI table gives 1 at 0 cm (CamComSim's script
+      sweeps ``d = 0``); the thin lens plays no part, so any distance
+      >= 0 is valid here.
     * **p_e = 1 inside the window.** CamComSim classifies a loss by testing
       ``channelError == 1``, so with ``p_e = 1`` its in-window losses are
       counted as inter-frame (gap) errors; rollsim keeps them as decode
@@ -615,7 +628,11 @@ class CamcomsimChannel:
       published ``Simulation.java`` passes the clock (``duration100Us``, in
       100 us) to its stop test instead of the emission count, with ``>``:
       50000 would stop after 5 s of simulated time (about 770 PHY-SDUs of
-      6.5 ms). rollsim caps emissions, as the paper says, with ``>=``.
+      6.5 ms). rollsim caps emissions, as the paper says, with ``>=``, and
+      a capped run has goodput 0 (paper §6.3.1). Where the visible part of
+      the frame cannot hold a PHY-SDU (``visible_slots <= sdu_slots``: from
+      32.5 cm on with the paper's link) nothing is ever received and every
+      run is capped.
     * Only the RP strategy exists in CamComSim 1.0; RS is rollsim's
       addition.
     """
@@ -627,8 +644,8 @@ class CamcomsimChannel:
 
     kind = "camcomsim"
     notes = (
-        "camcomsim: CamComSim's generation size G counts packets, not bytes (n_packets = G); "
-        "header and payload lengths are in bits",
+        "camcomsim: the message is G bytes in ceil(8 G / P) packets, as on every channel; CamComSim's own "
+        "generation size G counted packets (its G = 1000 is 1000 packets, here 422 of 19 bits)",
         "camcomsim: the clock advances by the PHY-SDU duration only, not by the random 0..9 slot gap "
         "between emissions",
     )

@@ -27,6 +27,13 @@ Per run
     ``P * unique_receptions / duration_s`` if completed, else 0 (CamComSim).
 ``throughput_bps``
     ``(H + P) * receptions / duration_s`` (CamComSim), capped runs included.
+``loss_streaks`` (only with ``record_loss_streaks=True``)
+    Lengths of the runs of consecutive losses (gap or decode) that a
+    reception ended, in order; a run's trailing losses, which no reception
+    ended, are left out (CamComSim's ``nbConsecutiveDrop``).
+
+A capped run counts with goodput 0, as the paper does (§6.3.1: "we stop the
+simulation when 50000 PHY-SDU are sent [...] we consider the goodput is 0").
 
 Reproducibility
 ---------------
@@ -64,6 +71,7 @@ from rollsim.transmitter.schedule import Schedule
 
 __all__ = [
     "CAMCOMSIM_FIELDS",
+    "CAMCOMSIM_RUN_FIELDS",
     "DEFAULT_MAX_EMISSIONS",
     "METRICS",
     "BroadcastResult",
@@ -97,6 +105,23 @@ CAMCOMSIM_FIELDS = {
     "goodput_bps": "goodputBps",
     "throughput_bps": "througputBps",
 }
+# Every field of one run in CamComSim's result file, in its order
+# (SimulationResult.java, the fields it exposes to its JSON writer).
+CAMCOMSIM_RUN_FIELDS = (
+    "physduTxDurationMs",
+    "nbConsecutiveDrop",
+    "nbTxGeneration",
+    "nbTxPhysdu",
+    "nbRxUniquePhysdu",
+    "nbRxPhysdu",
+    "nbInterFgError",
+    "nbIntraFError",
+    "duration100Us",
+    "isGenerationRx",
+    "goodputBps",
+    "througputBps",
+    "simuParams",
+)
 
 # Block sizes: the first block covers about one round (small messages do not
 # draw thousands of unused outcomes), later ones double up to _MAX_BLOCK
@@ -106,6 +131,9 @@ _MAX_BLOCK = 4096
 # Bytes a run's results take: six int64 counts, then ten float64 or int64
 # metric arrays and their summaries.
 _BYTES_PER_RUN = 160
+# Bytes per recorded loss streak (int64); a run holds at most one streak per
+# two emissions (each streak is ended by a reception).
+_BYTES_PER_STREAK = 8
 # Columns of the per-chunk integer table.
 _COUNTS = ("emissions", "receptions", "unique_receptions", "gap_losses", "decode_errors", "completed")
 
@@ -127,14 +155,34 @@ def _block_sizes(emissions_per_round: int):
         size = min(2 * size, _MAX_BLOCK)
 
 
-def _simulate_run(channel, schedule: Schedule, max_emissions: int, seed_sequence) -> tuple[int, ...]:
-    """One broadcast: ``(emissions, receptions, unique, gaps, errors, completed)``."""
+def _add_loss_streaks(received: np.ndarray, open_streak: int, length: int, streaks: list) -> int:
+    """Append the loss streaks that the receptions of a block end; return the streak left open.
+
+    ``received`` holds the sorted indices of the receptions among the
+    block's ``length`` emissions; ``open_streak`` counts the losses since
+    the last reception before the block.
+    """
+    if received.size == 0:
+        return open_streak + length
+    # A virtual reception open_streak + 1 emissions before the block's start.
+    gaps = np.diff(received, prepend=-1 - open_streak) - 1
+    streaks.append(gaps[gaps > 0])
+    return length - 1 - int(received[-1])
+
+
+def _simulate_run(channel, schedule: Schedule, max_emissions: int, seed_sequence, streaks: Optional[list] = None):
+    """One broadcast: ``(emissions, receptions, unique, gaps, errors, completed)``.
+
+    With a ``streaks`` list, the run's loss streaks are appended to it as
+    int64 arrays (their concatenation is the run's ``loss_streaks``).
+    """
     run = channel.open_run(seed_sequence)
     n = schedule.n_packets
     have = np.zeros(n, dtype=bool)
     n_have = 0
     counts = np.zeros(3, dtype=np.int64)  # per outcome code, emissions so far
     start = 0
+    open_streak = 0  # losses since the last reception
     for size in _block_sizes(schedule.emissions_per_round):
         codes = run.next_block(size)
         if start + size > max_emissions:
@@ -152,8 +200,12 @@ def _simulate_run(channel, schedule: Schedule, max_emissions: int, seed_sequence
                 if n_have == n:
                     end = int(got[fresh][first].max()) + 1
                     counts += np.bincount(codes[:end], minlength=3)
+                    if streaks is not None:
+                        _add_loss_streaks(got[got < end], open_streak, end, streaks)
                     return (start + end, int(counts[RECEIVED]), n, int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 1)
         counts += np.bincount(codes, minlength=3)
+        if streaks is not None:
+            open_streak = _add_loss_streaks(got, open_streak, codes.size, streaks)
         start += codes.size
         if start >= max_emissions:
             return (start, int(counts[RECEIVED]), n_have, int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 0)
@@ -161,13 +213,19 @@ def _simulate_run(channel, schedule: Schedule, max_emissions: int, seed_sequence
 
 
 def _simulate_chunk(
-    channel, schedule: Schedule, max_emissions: int, seed: int, first_run: int, stop_run: int
-) -> np.ndarray:
-    """Runs ``first_run .. stop_run - 1`` as an int64 table, one row per run."""
+    channel, schedule: Schedule, max_emissions: int, seed: int, first_run: int, stop_run: int,
+    record_loss_streaks: bool = False,
+) -> tuple[np.ndarray, Optional[list]]:
+    """Runs ``first_run .. stop_run - 1``: an int64 table, one row per run,
+    and (if recorded) each run's loss streaks as one int64 array."""
     table = np.empty((stop_run - first_run, len(_COUNTS)), dtype=np.int64)
+    per_run = [] if record_loss_streaks else None
     for row, k in enumerate(range(first_run, stop_run)):
-        table[row] = _simulate_run(channel, schedule, max_emissions, run_seed_sequence(seed, k))
-    return table
+        parts: Optional[list] = [] if record_loss_streaks else None
+        table[row] = _simulate_run(channel, schedule, max_emissions, run_seed_sequence(seed, k), parts)
+        if per_run is not None:
+            per_run.append(np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64))
+    return table, per_run
 
 
 @dataclass(frozen=True)
@@ -194,6 +252,10 @@ class BroadcastResult:
     completed : ndarray of bool
     notes : tuple of str
         Caveats of the channel (e.g. CamComSim's units).
+    loss_streaks : tuple of ndarray of int64, optional
+        Per run, the lengths of its runs of consecutive losses that a
+        reception ended (see the module docstring); ``None`` unless
+        simulated with ``record_loss_streaks=True``.
     """
 
     channel: dict
@@ -216,10 +278,17 @@ class BroadcastResult:
     throughput_bps: np.ndarray
     completed: np.ndarray
     notes: tuple = field(default=())
+    loss_streaks: Optional[tuple] = None
 
     @property
     def runs(self) -> int:
         return int(self.emissions.size)
+
+    @property
+    def rounds_started(self) -> np.ndarray:
+        """Rounds of the message begun per run: ``ceil(emissions / (r N_p))``."""
+        per_round = self.repeats * self.n_packets
+        return -(-self.emissions // per_round)
 
     @property
     def duration_100us(self) -> np.ndarray:
@@ -273,6 +342,7 @@ def simulate_broadcast(
     workers: Optional[int] = None,
     chunk_runs: Optional[int] = None,
     progress: Optional[Callable[[int], object]] = None,
+    record_loss_streaks: bool = False,
 ) -> BroadcastResult:
     """Broadcast a message over ``channel`` until it is complete, ``runs`` times.
 
@@ -301,6 +371,10 @@ def simulate_broadcast(
     progress : callable, optional
         Called as ``progress(n)`` with the number of runs of each finished
         chunk, e.g. ``tqdm(total=runs).update``.
+    record_loss_streaks : bool, default False
+        Also keep each run's loss streaks (``result.loss_streaks``, what
+        :func:`to_camcomsim` writes as ``nbConsecutiveDrop``): up to 8 bytes
+        per two emissions. The other results do not depend on it.
 
     Returns
     -------
@@ -324,31 +398,37 @@ def simulate_broadcast(
     if progress is not None and not callable(progress):
         raise ValueError(f"progress must be callable, got {progress!r}")
 
-    # Per run: its row of counts and the result's metric arrays; per worker:
-    # a run's received-packet flags and one block of outcomes.
+    record_loss_streaks = bool(record_loss_streaks)
+    # Per run: its row of counts and the result's metric arrays (and, if
+    # recorded, at most one loss streak per two emissions); per worker: a
+    # run's received-packet flags and one block of outcomes.
+    streak_bytes = runs * (max_emissions // 2) * _BYTES_PER_STREAK if record_loss_streaks else 0
     check_memory(f"runs = {runs} of {schedule.n_packets} packets",
-                 runs * _BYTES_PER_RUN + min(workers, runs) * (schedule.n_packets + 64 * _MAX_BLOCK))
+                 runs * _BYTES_PER_RUN + streak_bytes + min(workers, runs) * (schedule.n_packets + 64 * _MAX_BLOCK))
     bounds = [(lo, min(lo + chunk, runs)) for lo in range(0, runs, chunk)]
-    tables: list = [None] * len(bounds)
+    chunks: list = [None] * len(bounds)
     args = (channel, schedule, max_emissions, seed)
     if workers == 1 or len(bounds) == 1:
         for i, (lo, hi) in enumerate(bounds):
-            tables[i] = _simulate_chunk(*args, lo, hi)
+            chunks[i] = _simulate_chunk(*args, lo, hi, record_loss_streaks)
             if progress is not None:
                 progress(hi - lo)
     else:
         with process_pool(min(workers, len(bounds))) as pool:
-            futures = {pool.submit(_simulate_chunk, *args, lo, hi): i for i, (lo, hi) in enumerate(bounds)}
+            futures = {pool.submit(_simulate_chunk, *args, lo, hi, record_loss_streaks): i
+                       for i, (lo, hi) in enumerate(bounds)}
             for future in as_completed(futures):
                 i = futures[future]
-                tables[i] = future.result()
+                chunks[i] = future.result()
                 if progress is not None:
                     progress(bounds[i][1] - bounds[i][0])
-    table = np.concatenate(tables, axis=0)
-    return _result_from_table(table, channel, schedule, header_bits, payload_bits, seed, max_emissions)
+    table = np.concatenate([chunk_table for chunk_table, _ in chunks], axis=0)
+    streaks = tuple(a for _, per_run in chunks for a in per_run) if record_loss_streaks else None
+    return _result_from_table(table, channel, schedule, header_bits, payload_bits, seed, max_emissions, streaks)
 
 
-def _result_from_table(table, channel, schedule, header_bits, payload_bits, seed, max_emissions) -> BroadcastResult:
+def _result_from_table(table, channel, schedule, header_bits, payload_bits, seed, max_emissions,
+                       loss_streaks=None) -> BroadcastResult:
     columns = {name: table[:, j].copy() for j, name in enumerate(_COUNTS)}
     completed = columns.pop("completed").astype(bool)
     duration_s = columns["emissions"] * channel.emission_duration_s  # emissions >= 1: duration > 0
@@ -370,6 +450,7 @@ def _result_from_table(table, channel, schedule, header_bits, payload_bits, seed
         throughput_bps=throughput,
         completed=completed,
         notes=tuple(channel.notes),
+        loss_streaks=loss_streaks,
         **columns,
     )
 
@@ -438,36 +519,68 @@ def summarize(result: BroadcastResult) -> dict:
     }
 
 
-def to_camcomsim(result: BroadcastResult) -> dict:
-    """The result with CamComSim's field names, per run and in the summary.
+def to_camcomsim(result: BroadcastResult, simu_params: dict) -> list:
+    """The result in CamComSim's layout: a bare list with one object per run.
 
-    Fields: ``nbTxPhysdu`` (emissions), ``nbRxUniquePhysdu``, ``nbRxPhysdu``,
-    ``nbInterFgError`` (gap losses), ``nbIntraFError`` (decode errors),
-    ``duration100Us``, ``goodputBps``, ``througputBps`` (CamComSim's
-    spelling) and ``isGenerationRx`` (completed).
+    What CamComSim's result file holds (``SimulationResult.java``, written
+    by its JSON writer), so that its own post-processing (``json.load``
+    then ``pandas.json_normalize``) reads it. Each object has
+    :data:`CAMCOMSIM_RUN_FIELDS`, in that order:
+
+    ``physduTxDurationMs`` : float
+        Clock advance per emission, ms (the PHY-SDU duration).
+    ``nbConsecutiveDrop`` : list of int
+        The run's loss streaks (``result.loss_streaks``).
+    ``nbTxGeneration`` : int
+        Rounds of the message begun, ``ceil(emissions / (r N_p))``
+        (CamComSim declares the field but never sets it: always 0 there).
+    ``nbTxPhysdu``, ``nbRxUniquePhysdu``, ``nbRxPhysdu`` : int
+        Emissions, distinct packets received, receptions.
+    ``nbInterFgError``, ``nbIntraFError`` : int
+        Gap losses, decode errors.
+    ``duration100Us`` : float
+        Duration in units of 100 us.
+    ``isGenerationRx`` : bool
+        Whether the message was complete before the cap.
+    ``goodputBps``, ``througputBps`` : float
+        Goodput and throughput, bit/s (CamComSim's spelling); the goodput
+        of a capped run is 0, as in the paper.
+    ``simuParams`` : object
+        ``simu_params``, the same in every run (see
+        :func:`rollsim.channel.scene_channel.camcomsim_parameters`).
+
+    Parameters
+    ----------
+    result : BroadcastResult
+        Simulated with ``record_loss_streaks=True``.
+    simu_params : dict
+        CamComSim's ``simuParams`` object, JSON-ready.
 
     Returns
     -------
-    dict
-        ``{"runs": [per-run dict, ...], "summary": {field:
-        summary_statistics}, "completed_fraction", "notes", "parameters"}``,
+    list of dict
         JSON-ready.
+
+    Raises
+    ------
+    ValueError
+        If ``result`` has no loss streaks.
     """
-    columns = {camcomsim: getattr(result, name) for name, camcomsim in CAMCOMSIM_FIELDS.items()}
-    as_python = {
-        field_name: (values.tolist() if values.dtype.kind in "iu" else [float(v) for v in values])
-        for field_name, values in columns.items()
+    if result.loss_streaks is None:
+        raise ValueError("result has no loss streaks (nbConsecutiveDrop): simulate with record_loss_streaks=True")
+    emission_ms = float(result.emission_duration_100us) / 10.0
+    columns = {
+        "nbTxGeneration": result.rounds_started.tolist(),
+        **{camcomsim: getattr(result, name).tolist() for name, camcomsim in CAMCOMSIM_FIELDS.items()},
+        "isGenerationRx": result.completed.tolist(),
     }
-    completed = result.completed.tolist()
-    rows = [
-        {**{field_name: as_python[field_name][i] for field_name in columns}, "isGenerationRx": completed[i]}
-        for i in range(result.runs)
-    ]
-    summary = summarize(result)
-    return {
-        "runs": rows,
-        "summary": {camcomsim: summary_statistics(values) for camcomsim, values in columns.items()},
-        "completed_fraction": summary["completed_fraction"],
-        "parameters": {key: summary[key] for key in summary if key not in ("metrics", "notes", "completed_fraction")},
-        "notes": summary["notes"],
-    }
+    # CamComSim's float fields stay floats (1300.0, not 1300) whatever the channel.
+    for name in ("duration100Us", "goodputBps", "througputBps"):
+        columns[name] = [float(v) for v in columns[name]]
+    rows = []
+    for i in range(result.runs):
+        row = {"physduTxDurationMs": emission_ms, "nbConsecutiveDrop": result.loss_streaks[i].tolist()}
+        row.update((name, columns[name][i]) for name in CAMCOMSIM_RUN_FIELDS[2:-1])
+        row["simuParams"] = simu_params
+        rows.append(row)
+    return rows

@@ -461,8 +461,60 @@ def _error_line(error: dict, source: str) -> str:
 # ------------------------------------------------------- cross-field checks
 
 
-def consistency_errors(scene: Scene, source: str) -> list[str]:
-    """Errors between fields that are each valid on their own."""
+# Relaxations: cross-field rules that only some models of the link depend
+# on. The loader validates without knowing which model will read the scene,
+# so a caller whose model does not need a rule names it (``relax=``) and
+# then owns what the rule protected; everything else keeps the full rules.
+# The camcomsim channel of ``rollsim simulate`` asks for both (see
+# rollsim.channel.scene_channel.scene_relaxations); rendering never does.
+#
+# SEQUENCE_WRAP: too few link.header_bits to number every packet (0
+# included) is accepted, the sequence numbers wrap; for a model that tells
+# packets apart without them.
+# DISTANCE_WITHOUT_LENS: link.distance_cm from 0 up to the focal length,
+# where the thin lens diverges, is accepted; for a model that never images
+# the LED through the lens.
+SEQUENCE_WRAP = "sequence_wrap"
+DISTANCE_WITHOUT_LENS = "distance_without_lens"
+RELAXATIONS = (SEQUENCE_WRAP, DISTANCE_WITHOUT_LENS)
+# Stands in for a relaxed ``distance_cm = 0`` while the model checks its
+# range (> 0); any value in range does, it is replaced before anything reads it.
+_DISTANCE_PLACEHOLDER_CM = 1.0
+
+
+def _check_relax(relax: Iterable[str]) -> frozenset:
+    relax = frozenset(relax)
+    unknown = sorted(relax - set(RELAXATIONS))
+    if unknown:
+        raise ValueError(f"relax: unknown rules {unknown}; expected some of {list(RELAXATIONS)}")
+    return relax
+
+
+def _sequence_numbers_wrap(scene: Scene) -> bool:
+    link = scene.link
+    return n_packets(link.message_bytes, link.payload_bits) > 2**link.header_bits
+
+
+def _distance_within_focal_length(scene: Scene) -> bool:
+    return scene.link.distance_cm * 10.0 <= scene.camera.focal_length_mm
+
+
+def relaxations_used(scene: Scene) -> tuple[str, ...]:
+    """The relaxable rules ``scene`` breaks, in :data:`RELAXATIONS` order.
+
+    Empty for any scene loaded without ``relax``. A model that did not ask
+    for a rule checks here that its scene does not depend on it.
+    """
+    broken = {SEQUENCE_WRAP: _sequence_numbers_wrap(scene), DISTANCE_WITHOUT_LENS: _distance_within_focal_length(scene)}
+    return tuple(rule for rule in RELAXATIONS if broken[rule])
+
+
+def consistency_errors(scene: Scene, source: str, relax: Iterable[str] = ()) -> list[str]:
+    """Errors between fields that are each valid on their own.
+
+    ``relax`` names rules of :data:`RELAXATIONS` not to apply.
+    """
+    relax = _check_relax(relax)
     cam, link, errors = scene.camera, scene.link, []
     if cam.row_time_us is None and cam.ifg_ratio is None:
         errors.append(f"{source}: camera: give row_time_us or ifg_ratio")
@@ -482,13 +534,13 @@ def consistency_errors(scene: Scene, source: str) -> list[str]:
             f"{source}: camera.black_level_dn = {cam.black_level_dn}: must be below the ADC maximum "
             f"{2 ** cam.adc_bits - 1} (adc_bits = {cam.adc_bits})"
         )
-    if link.distance_cm * 10.0 <= cam.focal_length_mm:
+    if DISTANCE_WITHOUT_LENS not in relax and _distance_within_focal_length(scene):
         errors.append(
             f"{source}: link.distance_cm = {_fmt_number(link.distance_cm)}: the LED must be farther than the "
             f"focal length ({_fmt_number(cam.focal_length_mm)} mm), where the thin lens diverges"
         )
     packets = n_packets(link.message_bytes, link.payload_bits)
-    if packets > 2**link.header_bits:
+    if SEQUENCE_WRAP not in relax and _sequence_numbers_wrap(scene):
         errors.append(
             f"{source}: link.header_bits = {link.header_bits}: too few for {packets} packets "
             f"(message_bytes = {link.message_bytes}, payload_bits = {link.payload_bits}); "
@@ -566,8 +618,22 @@ def _temporal_effect_errors(scene: Scene) -> list[str]:
 # ------------------------------------------------------------------ entry points
 
 
+def _set_aside_zero_distance(merged: dict) -> tuple[dict, bool]:
+    """``merged`` with a ``link.distance_cm`` of 0 replaced by a placeholder, and whether it was.
+
+    The model keeps its range ``(0, 1e5]`` for everyone (its error names
+    that range); only a caller that relaxed :data:`DISTANCE_WITHOUT_LENS`
+    gets the 0 back, after validation.
+    """
+    link = merged.get("link")
+    value = link.get("distance_cm") if isinstance(link, Mapping) else None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value != 0:
+        return merged, False
+    return _merge(merged, {"link": {"distance_cm": _DISTANCE_PLACEHOLDER_CM}}), True
+
+
 def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[str] = (),
-                    values: Optional[Mapping] = None) -> Scene:
+                    values: Optional[Mapping] = None, relax: Iterable[str] = ()) -> Scene:
     """Validate a scene given as a dict (as read from YAML).
 
     Parameters
@@ -580,28 +646,40 @@ def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[
         ``KEY=VALUE`` overrides, as ``--set`` takes them.
     values : mapping, optional
         ``{dotted key: value}`` overrides after those, as Python values.
+    relax : iterable of str, optional
+        Rules of :data:`RELAXATIONS` not to apply, for a caller whose model
+        does not depend on them (default none: every rule applies).
+        :data:`DISTANCE_WITHOUT_LENS` also admits ``link.distance_cm = 0``,
+        below the model's range; such a scene must not reach the lens.
 
     Raises
     ------
     SceneError
         With one line per problem.
     """
+    relax = _check_relax(relax)
     if not isinstance(data, Mapping):
         raise SceneError(f"{source}: a scene must be a mapping of keys, got {type(data).__name__}")
     merged, errors = resolve_layers(data, parse_overrides(overrides, values), source)
     if errors:
         raise SceneError(errors)
+    zero_distance = False
+    if DISTANCE_WITHOUT_LENS in relax:
+        merged, zero_distance = _set_aside_zero_distance(merged)
     try:
         scene = Scene.model_validate(merged)
     except ValidationError as exc:
         raise SceneError([_error_line(err, source) for err in exc.errors()]) from None
-    errors = consistency_errors(scene, source)
+    if zero_distance:
+        # model_copy does not validate: the one value the model's range refuses.
+        scene = scene.model_copy(update={"link": scene.link.model_copy(update={"distance_cm": 0.0})})
+    errors = consistency_errors(scene, source, relax)
     if errors:
         raise SceneError(errors)
     return scene
 
 
-def load_scene(path: Union[str, Path], overrides: Iterable[str] = ()) -> Scene:
+def load_scene(path: Union[str, Path], overrides: Iterable[str] = (), relax: Iterable[str] = ()) -> Scene:
     """Load and validate a scene file, or a bundled scene by name.
 
     Parameters
@@ -610,6 +688,8 @@ def load_scene(path: Union[str, Path], overrides: Iterable[str] = ()) -> Scene:
         A YAML file, or the name of a bundled scene (see ``rollsim scenes``).
     overrides : iterable of str
         ``KEY=VALUE`` overrides, e.g. ``["camera.exposure_us=50"]``.
+    relax : iterable of str, optional
+        Rules not to apply, see :func:`scene_from_dict`.
 
     Returns
     -------
@@ -623,7 +703,7 @@ def load_scene(path: Union[str, Path], overrides: Iterable[str] = ()) -> Scene:
     from rollsim.scene.bundled import resolve_scene_path
 
     resolved = resolve_scene_path(path)
-    return scene_from_dict(read_yaml(resolved), str(path), overrides)
+    return scene_from_dict(read_yaml(resolved), str(path), overrides, relax=relax)
 
 
 def scene_to_dict(scene: Scene) -> dict:

@@ -30,8 +30,9 @@ from rollsim.channel.channels import (
     camcomsim_visible_slots,
 )
 from rollsim.channel.eventsim import (
-    CAMCOMSIM_FIELDS,
+    CAMCOMSIM_RUN_FIELDS,
     METRICS,
+    _add_loss_streaks,
     run_seed_sequence,
     simulate_broadcast,
     summary_statistics,
@@ -303,19 +304,69 @@ def test_camcomsim_window_probability_and_clock():
 
 
 def test_camcomsim_format_fields():
-    result = simulate(CamcomsimChannel.from_parameters(), n_packets=20, runs=30)
-    out = to_camcomsim(result)
-    json.dumps(out, allow_nan=False)
-    assert len(out["runs"]) == 30
-    row = out["runs"][0]
-    for name, camcomsim in CAMCOMSIM_FIELDS.items():
-        assert camcomsim in row and camcomsim in out["summary"]
+    result = simulate(CamcomsimChannel.from_parameters(), n_packets=20, runs=30, record_loss_streaks=True)
+    params = {"simuNbIteration": 30}
+    rows = to_camcomsim(result, params)
+    json.dumps(rows, allow_nan=False)
+    assert isinstance(rows, list) and len(rows) == 30
+    row = rows[0]
+    assert tuple(row) == CAMCOMSIM_RUN_FIELDS  # every field, in CamComSim's order
     assert "througputBps" in row and "throughputBps" not in row
     assert row["nbTxPhysdu"] == result.emissions[0]
     assert row["duration100Us"] == result.emissions[0] * 65
+    assert row["physduTxDurationMs"] == pytest.approx(6.5)
     assert row["nbInterFgError"] == result.gap_losses[0]
     assert row["isGenerationRx"] is bool(result.completed[0])
-    assert any("packets" in note for note in out["notes"])
+    assert row["simuParams"] == params
+    for i, row in enumerate(rows):
+        # One round is 20 emissions (r = 1): the rounds begun cover the emissions.
+        assert row["nbTxGeneration"] == math.ceil(row["nbTxPhysdu"] / 20)
+        # A completed run ends in a reception, so every loss belongs to a streak.
+        assert sum(row["nbConsecutiveDrop"]) == row["nbInterFgError"] + row["nbIntraFError"]
+        assert all(streak > 0 for streak in row["nbConsecutiveDrop"])
+        assert len(row["nbConsecutiveDrop"]) <= row["nbRxPhysdu"]
+
+
+def test_camcomsim_format_needs_loss_streaks():
+    result = simulate(CamcomsimChannel.from_parameters(), n_packets=5, runs=3)
+    assert result.loss_streaks is None
+    with pytest.raises(ValueError, match="record_loss_streaks"):
+        to_camcomsim(result, {})
+
+
+def reference_loss_streaks(codes):
+    """Loss streaks ended by a reception, by a plain walk over the outcomes."""
+    streaks, open_streak = [], 0
+    for code in codes:
+        if code == RECEIVED:
+            if open_streak:
+                streaks.append(open_streak)
+            open_streak = 0
+        else:
+            open_streak += 1
+    return streaks
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_loss_streaks_across_blocks_match_a_plain_walk(seed):
+    rng = np.random.default_rng(seed)
+    codes = rng.choice([RECEIVED, GAP_LOSS, DECODE_ERROR], size=int(rng.integers(1, 200)), p=[0.3, 0.5, 0.2])
+    cuts = np.sort(rng.choice(np.arange(1, codes.size + 1), size=min(5, codes.size), replace=False))
+    streaks, open_streak, start = [], 0, 0
+    for stop in cuts:
+        block = codes[start:stop]
+        open_streak = _add_loss_streaks(np.flatnonzero(block == RECEIVED), open_streak, block.size, streaks)
+        start = stop
+    found = np.concatenate(streaks).tolist() if streaks else []
+    assert found == reference_loss_streaks(codes[:start])
+
+
+def test_loss_streaks_do_not_change_the_results():
+    channel = CamcomsimChannel.from_parameters()
+    plain = simulate(channel, n_packets=31, runs=40, seed=3)
+    recorded = simulate(channel, n_packets=31, runs=40, seed=3, record_loss_streaks=True)
+    assert_same(plain, recorded)
+    assert len(recorded.loss_streaks) == 40
 
 
 # ----------------------------------------------------------------------------
