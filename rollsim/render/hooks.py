@@ -7,6 +7,8 @@ frame beyond the arrays they change:
 
 * :func:`lens_psf` (``blur``, ``defocus``): the LED's coverage map seen
   through the lens PSF, on a larger bounding box; the LED rows follow it.
+* :func:`emitter_light` (``led_profile``, ``glare``): where the LED's light
+  falls, apart from where its body hides the background.
 * :func:`colour_filter_array` (``bayer``): per-pixel electron rates, each
   pixel its own channel's, from spectra.
 * :func:`vignetting`: the rates times the cos⁴ map.
@@ -22,6 +24,8 @@ from dataclasses import replace
 
 from rollsim.errors import RollsimError
 from rollsim.optics import magnification
+from rollsim.optics.emitter import profiled_light
+from rollsim.optics.glare import glare_core_px, glared_light
 from rollsim.optics.psf import (
     MAX_DISK_DIAMETER_PX,
     blurred_footprint,
@@ -102,6 +106,28 @@ def lens_psf(setup):
         background_e_per_s=setup.background_e_per_s * scale**-2,
         face_e_per_s=setup.face_e_per_s * scale**-2,
     )
+
+
+def emitter_light(setup):
+    """``led_profile`` and ``glare``: where the LED's light falls on the sensor.
+
+    The face's radiance profile (:func:`rollsim.optics.emitter.profiled_light`)
+    and then the lens's veiling glare (:func:`rollsim.optics.glare.glared_light`)
+    reshape the LED's light, not its body: the background stays hidden by
+    the footprint alone. The LED rows are those of the light, by the rule of
+    :func:`lens_psf`.
+    """
+    scene = setup.scene
+    cam, effects = scene.camera, scene.effects
+    light = setup.footprint
+    if effects.led_profile is not None:
+        px_per_mm = setup.led_size_px / scene.led.size_mm  # the image scale, defocus included
+        light = profiled_light(light, setup.led_centre_px, effects.led_profile.core_sigma_mm * px_per_mm)
+    if effects.glare is not None:
+        params = effects.glare
+        core_px = glare_core_px(params.core_angle_deg, cam.focal_length_mm * 1e-3, cam.pixel_pitch_um * 1e-6)
+        light = glared_light(light, setup.shape, params.fraction, core_px, params.exponent)
+    return replace(setup, led_light=light, led_rows=led_rows_from_coverage(light.row_coverage(cam.height_px)))
 
 
 def colour_filter_array(setup):

@@ -91,7 +91,8 @@ class SceneSetup:
     timing : RowTiming
     transmitter : Transmitter
     footprint : Footprint
-        LED coverage on its bounding box.
+        LED coverage on its bounding box: where the LED's body hides the
+        background (and, without ``led_profile`` or ``glare``, where its light falls).
     led_centre_px : (float, float)
     led_size_px : float
     led_rows : (int, int) or None
@@ -107,6 +108,10 @@ class SceneSetup:
     prepared : tuple of str or None
         Effects whose per-scene hooks have run
         (:func:`rollsim.render.stages.prepare_setup`); None before.
+    led_light : Footprint or None
+        Where the LED's light falls, in units of a fully covered pixel at the
+        face's mean luminance, when an effect spreads it beyond the footprint
+        (``led_profile``, ``glare``); None means ``footprint``.
     """
 
     scene: object
@@ -121,6 +126,7 @@ class SceneSetup:
     face_e_per_s: float
     gain_dn_per_e: float
     prepared: tuple | None = None
+    led_light: Footprint | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -102,9 +102,10 @@ def led_exposure_stage(setup) -> Stage:
 
 
 def led_signal_stage(setup) -> Stage:
-    """Mean electrons of the LED: coverage × rate × ∫ s dt, per row."""
+    """Mean electrons of the LED: light × rate × ∫ s dt, per row (the light is the
+    coverage unless ``led_profile`` or ``glare`` spread it: ``setup.led_light``)."""
     rate, shape = setup.led_e_per_s, setup.shape
-    static = setup.footprint
+    static = setup.footprint if setup.led_light is None else setup.led_light
     # Per-pixel rates (vignetting, a CFA) fold into the static coverage once;
     # a moving footprint's are folded per frame.
     static_coverage = static.coverage * _on_box(rate, static) if np.ndim(rate) else static.coverage
@@ -116,7 +117,7 @@ def led_signal_stage(setup) -> Stage:
         return fp.coverage * _on_box(rate, fp) if np.ndim(rate) else fp.coverage
 
     def run(state):
-        fp = state.led_footprint
+        fp = static if state.footprint is None else state.footprint
         electrons = np.zeros(shape)
         if fp.coverage.size:
             row_signal = scalar_rate * state.led_exposure_s[fp.rows]
@@ -379,6 +380,8 @@ EFFECT_BUILDERS = {
     "blooming": blooming_stage,
     "blur": per_scene_only,
     "defocus": per_scene_only,
+    "led_profile": per_scene_only,
+    "glare": per_scene_only,
     "bayer": per_scene_only,
     "vignetting": per_scene_only,
 }
@@ -389,6 +392,7 @@ EFFECT_BUILDERS = {
 SETUP_HOOKS = (
     (("bayer",), hooks.colour_filter_array),
     (("blur", "defocus"), hooks.lens_psf),
+    (("led_profile", "glare"), hooks.emitter_light),
     (("vignetting",), hooks.vignetting),
 )
 

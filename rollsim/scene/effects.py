@@ -157,6 +157,24 @@ class Bayer(_Params):
     spectral_step_nm: Literal[1, 5, 10, "peak"] = 1
 
 
+class LedProfile(_Params):
+    """The LED face's radiance: a Gaussian of the distance from its centre,
+    σ = ``core_sigma_mm`` on the face, truncated at its edge, scaled so that
+    the face emits the LED's luminous intensity. See :mod:`rollsim.optics.emitter`."""
+
+    core_sigma_mm: float = Field(1.0, gt=0, le=1e3)
+
+
+class Glare(_Params):
+    """Veiling glare of the lens: a fraction ``fraction`` of the LED's light
+    is scattered into a Moffat halo of core angle ``core_angle_deg`` whose
+    wings fall as θ^(−2·``exponent``). See :mod:`rollsim.optics.glare`."""
+
+    fraction: float = Field(0.05, ge=0, le=1)
+    core_angle_deg: float = Field(2.0, gt=0, le=60)
+    exponent: float = Field(2.0, gt=1, le=10)
+
+
 class Effects(_Params):
     """Which effects a scene calls for (``None`` = not listed, not computed)."""
 
@@ -170,6 +188,8 @@ class Effects(_Params):
     blur: Optional[Blur] = None
     defocus: Optional[Defocus] = None
     bayer: Optional[Bayer] = None
+    led_profile: Optional[LedProfile] = None
+    glare: Optional[Glare] = None
     vignetting: Optional[Vignetting] = None
     led_rise_time: Optional[LedRiseTime] = None
     frame_jitter: Optional[FrameJitter] = None

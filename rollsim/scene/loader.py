@@ -612,6 +612,10 @@ def _temporal_effect_errors(scene: Scene) -> list[str]:
         errors.append(frame_jitter_error(scene.camera, effects.frame_jitter))
     if effects.flicker is not None and effects.ambient is None:
         errors.append("effects.flicker: modulates the ambient light; list the ambient effect too")
+    if effects.motion is not None and (effects.led_profile is not None or effects.glare is not None):
+        # The glare halo is convolved once per scene (a tenth of a second);
+        # a moving LED would need it again for every frame.
+        errors.append("effects.motion: cannot be combined with led_profile or glare yet; list one or the other")
     return [e for e in errors if e]
 
 

@@ -51,13 +51,15 @@ SIZE = ["camera.width_px=1920", "camera.height_px=1080"]
 @pytest.mark.parametrize(
     "overrides",
     [SIZE, [*SIZE, *ALL_EFFECTS], [*SIZE, "effects.bayer=null", "camera.output=rgb8"],
-     [*SIZE, "effects.defocus.focus_distance_cm=20"]],
-    ids=["default", "every-effect", "bayer-rgb8", "defocus"],
+     [*SIZE, "effects.defocus.focus_distance_cm=20"],
+     [*SIZE, "effects.glare=null", "effects.led_profile=null", "effects.blur=null"]],
+    ids=["default", "every-effect", "bayer-rgb8", "defocus", "glare"],
 )
 def test_render_and_decode_stay_within_their_estimates(overrides):
     done = subprocess.run([sys.executable, "-c", _MEASURE, json.dumps(overrides)], capture_output=True, text=True,
                           check=True)
     peak = json.loads(done.stdout)
+    print(overrides[2:], peak)
     scene = load_scene("paper-default", overrides)
     pixels = scene.camera.width_px * scene.camera.height_px
     assert peak["render"] <= render_memory_bytes(scene, workers=1)

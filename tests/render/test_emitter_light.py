@@ -1,0 +1,168 @@
+"""The LED's radiance profile (led_profile) and the lens's veiling glare (glare) against known answers."""
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from rollsim.errors import SceneError
+from rollsim.optics.emitter import profiled_light
+from rollsim.optics.footprint import Footprint, footprint
+from rollsim.optics.glare import glare_core_px, glared_light, moffat_kernel, moffat_mass_beyond
+from rollsim.render import RenderPipeline
+from rollsim.scene import load_scene
+
+from conftest import make_scene
+
+FRAME = (120, 140)
+
+
+def moffat_density(r, core_px, exponent):
+    """The unit-mass Moffat profile per unit area (its analytic form)."""
+    return (exponent - 1) / (math.pi * core_px**2) * (1 + (r / core_px) ** 2) ** -exponent
+
+
+# ------------------------------------------------------------- the glare kernel
+@pytest.mark.parametrize(("core_px", "exponent"), [(5.0, 1.5), (20.0, 2.0), (3.0, 3.5)])
+def test_moffat_mass_beyond_matches_the_integral(core_px, exponent):
+    for radius in (0.0, 7.0, 60.0, 500.0):
+        inside, _ = quad(lambda r: 2 * math.pi * r * moffat_density(r, core_px, exponent), 0, radius, limit=200)
+        assert moffat_mass_beyond(radius, core_px, exponent) == pytest.approx(1 - inside, abs=1e-9)
+
+
+@pytest.mark.parametrize(("core_px", "exponent"), [(8.0, 2.0), (15.0, 1.5), (30.0, 3.0)])
+def test_moffat_kernel_has_the_analytic_peak_and_mass(core_px, exponent):
+    kernel = moffat_kernel(core_px, exponent, 200, 260)
+    assert kernel.shape == (401, 521)
+    # Sampling a smooth profile wider than a pixel: the normalised peak is
+    # the analytic density at r = 0 (to the error of the midpoint rule).
+    assert kernel[200, 260] == pytest.approx(moffat_density(0.0, core_px, exponent), rel=2e-3)
+    dy, dx = np.indices(kernel.shape)
+    inside = (dy - 200) ** 2 + (dx - 260) ** 2 <= 200**2
+    # float32 samples: the mass to float32 precision.
+    assert kernel[inside].sum(dtype=np.float64) == pytest.approx(1 - moffat_mass_beyond(200, core_px, exponent), rel=1e-6)
+    # The rectangle's corners hold a little more, never more than the whole halo.
+    assert kernel[inside].sum(dtype=np.float64) < kernel.sum(dtype=np.float64) < 1.0
+    np.testing.assert_array_equal(kernel, kernel[::-1, ::-1])  # symmetric
+
+
+@pytest.mark.parametrize(("core_px", "exponent"), [(0.0, 2.0), (5.0, 1.0), (-1.0, 2.0)])
+def test_moffat_kernel_refuses_bad_parameters(core_px, exponent):
+    with pytest.raises(ValueError):
+        moffat_kernel(core_px, exponent, 5, 5)
+
+
+def test_glare_core_px_is_the_thin_lens_angle():
+    # 2 degrees at f = 4 mm over 1.12 um pixels.
+    assert glare_core_px(2.0, 4e-3, 1.12e-6) == pytest.approx(4e-3 * math.tan(math.radians(2.0)) / 1.12e-6)
+
+
+def point_light(row=60, col=70, value=1.0):
+    return Footprint(slice(row, row + 1), slice(col, col + 1), np.array([[value]]))
+
+
+def test_glare_of_a_point_is_the_kernel():
+    """The impulse response: (1 - eta) at the point, eta x the kernel around it."""
+    eta, core, beta = 0.3, 6.0, 2.0
+    out = glared_light(point_light(), FRAME, eta, core, beta).dense(FRAME)
+    # The kernel reaches from the lit pixel to every pixel of the frame: 61 rows, 71 columns.
+    kernel = moffat_kernel(core, beta, 61, 71)
+    ry, rx = (kernel.shape[0] - 1) // 2, (kernel.shape[1] - 1) // 2
+    expected = eta * kernel[ry - 60 : ry - 60 + FRAME[0], rx - 70 : rx - 70 + FRAME[1]]
+    expected[60, 70] += 1 - eta
+    # float32 FFT: errors of ~1e-7 of the largest value.
+    np.testing.assert_allclose(out, expected, rtol=0, atol=1e-7 * expected.max())
+
+
+def test_glare_conserves_light_but_for_what_leaves_the_frame():
+    fp = footprint((70.0, 60.0), 20.0, "disk", FRAME)
+    eta, core, beta = 0.2, 4.0, 2.5
+    out = glared_light(fp, FRAME, eta, core, beta)
+    total, lit = out.coverage.sum(), fp.coverage.sum()
+    # Scattered light beyond the nearest frame edge (seen from the disk's rim) may leave; no more.
+    nearest_edge = min(60 - 10, FRAME[0] - 60 - 10, 70 - 10, FRAME[1] - 70 - 10)
+    assert lit * (1 - eta * moffat_mass_beyond(nearest_edge, core, beta)) <= total <= lit
+    assert out.coverage.min() >= 0
+    np.testing.assert_array_equal(glared_light(fp, FRAME, 0.0, core, beta).dense(FRAME), fp.dense(FRAME))
+
+
+def test_glare_is_linear_in_the_light():
+    a, b = point_light(30, 40), point_light(80, 100, 2.5)
+    both = Footprint(slice(30, 81), slice(40, 101), np.zeros((51, 61)))
+    both.coverage[0, 0], both.coverage[50, 60] = 1.0, 2.5
+    sum_of = glared_light(a, FRAME, 0.1, 5.0, 2.0).dense(FRAME) + glared_light(b, FRAME, 0.1, 5.0, 2.0).dense(FRAME)
+    np.testing.assert_allclose(glared_light(both, FRAME, 0.1, 5.0, 2.0).dense(FRAME), sum_of, rtol=1e-5, atol=1e-9)
+
+
+# ----------------------------------------------------------- the face's profile
+def test_profile_conserves_light_and_follows_the_gaussian():
+    fp = footprint((70.0, 60.0), 40.0, "disk", FRAME)
+    sigma = 6.0
+    light = profiled_light(fp, (70.0, 60.0), sigma)
+    assert light.coverage.sum() == pytest.approx(fp.coverage.sum(), rel=1e-12)
+    # Two fully covered pixels: their ratio is the Gaussian's.
+    (r1, c1), (r2, c2) = (60, 70), (60, 80)  # pixel centres 0.5 and ~10.5 px from the centre
+    i1, j1, i2, j2 = r1 - fp.rows.start, c1 - fp.cols.start, r2 - fp.rows.start, c2 - fp.cols.start
+    rho1, rho2 = math.hypot(0.5, 0.5), math.hypot(10.5, 0.5)
+    ratio = light.coverage[i2, j2] / light.coverage[i1, j1]
+    assert ratio == pytest.approx(math.exp(-(rho2**2 - rho1**2) / (2 * sigma**2)), rel=1e-12)
+
+
+def test_profile_far_wider_than_the_face_is_uniform():
+    fp = footprint((70.0, 60.0), 20.0, "disk", FRAME)
+    np.testing.assert_allclose(profiled_light(fp, (70.0, 60.0), 1e6).coverage, fp.coverage, rtol=1e-9)
+
+
+def test_profile_far_narrower_than_a_pixel_stays_finite():
+    fp = footprint((70.3, 60.2), 20.0, "disk", FRAME)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        light = profiled_light(fp, (70.3, 60.2), 1e-6)
+    assert np.isfinite(light.coverage).all()
+    assert light.coverage.sum() == pytest.approx(fp.coverage.sum(), rel=1e-12)
+    assert light.coverage.max() == pytest.approx(fp.coverage.sum(), rel=1e-12)  # all of it in one pixel
+
+
+def test_profile_refuses_a_bad_sigma():
+    with pytest.raises(ValueError, match="sigma_px"):
+        profiled_light(footprint((70.0, 60.0), 20.0, "disk", FRAME), (70.0, 60.0), 0.0)
+
+
+# ------------------------------------------------------------------ in a scene
+def test_setup_light_conserves_the_led_flux():
+    plain = RenderPipeline(make_scene(effects=["ambient"])).setup
+    profiled = RenderPipeline(make_scene(effects={"ambient": {}, "led_profile": {"core_sigma_mm": 3.0}})).setup
+    assert profiled.led_light.coverage.sum() == pytest.approx(plain.footprint.coverage.sum(), rel=1e-12)
+    # The body still hides the same background.
+    np.testing.assert_array_equal(profiled.footprint.coverage, plain.footprint.coverage)
+    glared = RenderPipeline(make_scene(effects={"ambient": {}, "glare": {"fraction": 0.1}})).setup
+    assert glared.led_light.coverage.shape == glared.shape  # the halo reaches the whole frame
+    assert 0.9 * plain.footprint.coverage.sum() <= glared.led_light.coverage.sum() <= plain.footprint.coverage.sum()
+
+
+def test_rendered_led_signal_is_the_light():
+    """An LED always ON, noiseless: the profile moves its electrons, their total stays."""
+    sections = dict(led={"size_mm": 2.0, "luminous_intensity_cd": 1e-4}, link={"pattern": "on"})
+    plain = RenderPipeline(make_scene(effects=[], **sections))
+    profiled = RenderPipeline(make_scene(effects={"led_profile": {"core_sigma_mm": 0.6}}, **sections))
+    a, b = plain.run_stages(0).electrons, profiled.run_stages(0).electrons
+    full_well = plain.setup.scene.camera.full_well_e
+    assert a.max() < b.max() < full_well  # a brighter core, nothing clipped
+    assert b.sum() == pytest.approx(a.sum(), rel=1e-9)
+
+
+def test_led_rows_shrink_with_distance_under_glare():
+    counts = []
+    for distance_cm in (5, 10, 20, 30, 40):
+        scene = make_scene(effects={"glare": {}, "led_profile": {}}, link={"distance_cm": distance_cm},
+                           led={"size_mm": 5.0, "luminous_intensity_cd": 1.0})
+        first, last = RenderPipeline(scene).setup.led_rows
+        counts.append(last - first + 1)
+    assert all(a >= b for a, b in zip(counts, counts[1:])) and counts[0] > counts[-1]
+
+
+def test_motion_with_glare_is_refused_at_load():
+    with pytest.raises(SceneError, match="effects.motion: cannot be combined with led_profile or glare"):
+        load_scene("effect-motion", ["effects.glare={}"])
