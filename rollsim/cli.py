@@ -350,8 +350,9 @@ def cmd_run(args) -> int:
         print(f"calibration not possible: {summary.calibration_error}")
     else:
         mmbp, prediction = summary.calibration["mmbp"], summary.calibration["prediction"]
-        print(f"MMBP fit: M = {mmbp['M']}, N = {mmbp['N']}, p_e = {mmbp['p_e']:.4g} "
-              f"(95% CI {mmbp['p_e_ci95'][0]:.4g} .. {mmbp['p_e_ci95'][1]:.4g}); "
+        from rollsim.calibrate import p_e_text
+
+        print(f"MMBP fit: M = {mmbp['M']}, N = {mmbp['N']}, {p_e_text(mmbp)}; "
               f"physics prediction M = {prediction['M']}, N = {prediction['N']}")
     times = ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in summary.timings.items())
     print(f"time: {times}")

@@ -1,10 +1,11 @@
-"""A plain-text and JSON summary of a scene's timing, PHY-SDU and schedule."""
+"""A plain-text and JSON summary of a scene's timing, PHY-SDU, schedule and link prediction."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from rollsim.budget import check_memory
+from rollsim.channel.prediction import link_prediction
 from rollsim.protocol import camcomsim_sdu_duration_s, last_payload_bits
 from rollsim.transmitter import transmitter_from_scene
 
@@ -80,6 +81,7 @@ def describe_scene(scene, emissions: int = 12) -> dict:
             "first_sdu_chips": _chip_string(tx.waveform.chips.values(np.arange(phy.sdu_chips))),
             "on_fraction": float(ones[1] - ones[0]) / max(1, round_emissions * phy.sdu_chips),
         },
+        "link": link_prediction(scene),
         "effects": list(scene.effects.enabled()),
     }
 
@@ -106,6 +108,20 @@ def format_description(info: dict) -> str:
         f"waveform   pattern {wave['pattern']} at {wave['clock_hz']:g} Hz from {wave['start_offset_us']:g} us, "
         f"ON fraction {wave['on_fraction']:.4f}",
         f"           chips of tx 0: {wave['first_sdu_chips']}",
+        *_link_lines(info["link"], info["camera"]["height_px"]),
         f"effects    {', '.join(info['effects']) or '(none)'}",
     ]
     return "\n".join(lines)
+
+
+def _link_lines(link: dict, height_px: int) -> list[str]:
+    rows = link["led_rows"]
+    where = f"rows {rows[0]}-{rows[1]} of {height_px}" if rows else f"no row of {height_px}"
+    return [
+        f"LED        {where} (geometric image): ROI ratio {link['roi_ratio']:.3f} "
+        f"(the paper's Eq. 10: {link['roi_ratio_eq10']:.3f})",
+        f"MMBP       M = {link['M']}, N = {link['N']} from the physics (capture window "
+        f"{link['capture_window_s'] * 1e3:.4g} ms), p_e = {link['p_e']:g}",
+        f"predicted  {link['strategy'].upper()} r={link['repeats']}, {link['n_packets']} packets: p0 = {link['p0']:.4g}, "
+        f"P(all packets in one round) = {link['p_message']:.4g}, expected goodput {link['goodput_bps']:.4g} bit/s",
+    ]

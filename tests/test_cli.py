@@ -54,6 +54,30 @@ def test_describe_text_and_json(capsys):
     assert info["schedule"]["first_sequence_numbers"][:3] == [0, 1, 2]
 
 
+def test_describe_predicts_the_link(capsys):
+    """ROI, M and N from the geometry; p0 and goodput from the MMBP closed forms."""
+    from rollsim.channel import analytic
+    from rollsim.optics import led_rows
+    from rollsim.scene import load_scene
+
+    args = ["--set", "link.strategy=rs", "--set", "link.repeats=3", "--set", "link.distance_cm=10"]
+    assert main(["describe", "paper-default", *args]) == 0
+    text = capsys.readouterr().out
+    assert "ROI ratio" in text and "M = " in text and "expected goodput" in text
+    assert main(["describe", "paper-default", "--json", *args]) == 0
+    link = json.loads(capsys.readouterr().out)["link"]
+    scene = load_scene("paper-default", [a for a in args if a != "--set"])
+    first, last = led_rows(scene)
+    assert link["led_rows"] == [first, last]
+    assert link["roi_ratio"] == (last - first + 1) / 1080
+    window = (last - first + 1) * scene.camera.row_time_s + scene.camera.exposure_s
+    slots = analytic.mmbp_slots_from_physics(scene.camera.frame_period_s, window, 0.007)
+    assert (link["M"], link["N"]) == (slots.M, slots.N)
+    assert link["p0"] == link["p0_rs"] == analytic.mmbp_p0_rs(slots.M, slots.N, 3, 0.001, 22)
+    assert link["goodput_bps"] == analytic.mmbp_expected_goodput_bps(slots.M, slots.N, 3, 0.001, 22, "rs", 19, 0.007)
+    assert 0 < link["goodput_bps"] < 19 / 0.007  # below one payload per PHY-SDU time
+
+
 def test_debug_shows_traceback():
     from rollsim.errors import RollsimError
 

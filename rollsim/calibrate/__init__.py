@@ -21,7 +21,14 @@ from rollsim.calibrate.compare import (
     simulate_mmbp_trace,
 )
 from rollsim.calibrate.ge import GeFit, fit_ge, ge_method_of_moments
-from rollsim.calibrate.mmbp import MmbpFit, clopper_pearson, fit_mmbp_aligned, fit_mmbp_cycle
+from rollsim.calibrate.mmbp import (
+    MmbpFit,
+    clopper_pearson,
+    fit_mmbp_aligned,
+    fit_mmbp_cycle,
+    p_e_text,
+    zero_failure_bound,
+)
 from rollsim.calibrate.replay import mmbp_goodput_bps, replay_goodput_bps
 from rollsim.calibrate.trace import Trace, load_trace
 from rollsim.errors import RollsimError
@@ -166,6 +173,8 @@ __all__ = [
     "Trace",
     "calibrate",
     "clopper_pearson",
+    "p_e_text",
+    "zero_failure_bound",
     "fit_ge",
     "fit_mmbp",
     "fit_mmbp_aligned",
@@ -186,8 +195,7 @@ def format_calibration(result: dict) -> str:
     m, ge, mom = result["mmbp"], result["ge"], result["ge_moments"]
     lines = [
         f"calibration of {result['source']}: {result['emissions']} emissions, {result['successes']} successes",
-        f"MMBP ({m['method']}): M = {m['M']}, N = {m['N']}, p_e = {_number(m['p_e'])} "
-        f"(95% CI {_number(m['p_e_ci95'][0])} .. {_number(m['p_e_ci95'][1])}), "
+        f"MMBP ({m['method']}): M = {m['M']}, N = {m['N']}, {p_e_text(m, _number)}, "
         f"mean ON slots per frame {m['mean_on_per_frame']:.3f}",
         f"Gilbert-Elliott (maximum likelihood): p = {_number(ge['p'])}, q = {_number(ge['q'])}, p_e = {_number(ge['p_e'])}",
     ]

@@ -90,13 +90,50 @@ class MmbpFit:
 
 
 def clopper_pearson(failures: int, trials: int, level: float = 0.95) -> tuple[float, float]:
-    """Exact binomial interval of a proportion (0 and 1 handled exactly)."""
+    """Exact two-sided binomial interval of a proportion (0 and 1 handled exactly).
+
+    It covers the true proportion with probability >= ``level`` (tested by
+    exact enumeration). With no failures its upper end is the one-sided
+    ``(1 + level) / 2`` bound, ≈ 3.7/n at 95 %; :func:`zero_failure_bound`
+    gives the one-sided ``level`` bound (≈ 3/n) that a report states then.
+    """
     if trials <= 0:
         raise ValueError("trials must be >= 1")
     alpha = 1.0 - level
     low = 0.0 if failures == 0 else float(beta.ppf(alpha / 2, failures, trials - failures + 1))
     high = 1.0 if failures == trials else float(beta.ppf(1 - alpha / 2, failures + 1, trials - failures))
     return low, high
+
+
+def zero_failure_bound(trials: int, level: float = 0.95) -> float:
+    """One-sided upper bound of a proportion after 0 failures in ``trials``.
+
+    ``1 - (1 - level)^(1/n)``, ≈ 3/n at 95 % (the "rule of three"):
+    a proportion above it gives no failure in n trials with probability
+    below ``1 - level``. Computed without cancellation for large n.
+    """
+    if trials <= 0:
+        raise ValueError("trials must be >= 1")
+    return -math.expm1(math.log(1.0 - level) / trials)
+
+
+def p_e_text(mmbp: dict, number=None) -> str:
+    """``p_e`` of a fit as a report states it: with its 95 % interval, or,
+    with no error in ON slots, as the one-sided 95 % bound (≈ 3/n), never a bare 0.
+
+    Parameters
+    ----------
+    mmbp : dict
+        :meth:`MmbpFit.as_dict`.
+    number : callable, optional
+        Formats a float (default ``format(x, ".4g")``).
+    """
+    number = number or (lambda x: format(x, ".4g"))
+    if mmbp["on_failures"] == 0 and mmbp["on_emissions"] > 0:
+        bound = zero_failure_bound(mmbp["on_emissions"])
+        return f"p_e = 0 in {mmbp['on_emissions']} PHY-SDUs: < {number(bound)} (95 %, one-sided)"
+    low, high = mmbp["p_e_ci95"]
+    return f"p_e = {number(mmbp['p_e'])} (95 % CI {number(low)} .. {number(high)})"
 
 
 def bernoulli_loglik(failures: int, trials: int) -> float:

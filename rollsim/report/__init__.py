@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rollsim.calibrate.mmbp import p_e_text
 from rollsim.tables import format_number, format_percent, markdown_table
 from rollsim.report.plots import (
     plot_goodput,
@@ -66,8 +67,7 @@ def _calibration_lines(calibration: dict) -> list[str]:
     m, ge, prediction = calibration["mmbp"], calibration["ge"], calibration.get("prediction")
     criteria = calibration["criteria"]
     parameters = {
-        "mmbp": f"M = {m['M']}, N = {m['N']}, p_e = {format_number(m['p_e'])} "
-                f"(95 % CI {format_number(m['p_e_ci95'][0])} – {format_number(m['p_e_ci95'][1])})",
+        "mmbp": f"M = {m['M']}, N = {m['N']}, {p_e_text(m, format_number)}",
         "ge": f"p = {format_number(ge['p'])}, q = {format_number(ge['q'])}, p_e = {format_number(ge['p_e'])}",
     }
     names = {"mmbp": f"MMBP ({m['method']})", "ge": "Gilbert-Elliott (ML)"}

@@ -36,7 +36,7 @@ _CELL_COST_S = {"analytic": 0.001, "simulate": 0.2, "run": 1.0}
 # the others and with the validation of the cells) rather than by the first
 # cell each worker runs: colour-science alone takes 2 s.
 STAGE_MODULES = {
-    "analytic": ("rollsim.channel.scene_channel", "rollsim.sweeps.stages"),
+    "analytic": ("rollsim.channel.prediction", "rollsim.sweeps.stages"),
     "simulate": ("rollsim.channel.scene_channel", "rollsim.channel.eventsim", "rollsim.sweeps.stages"),
     "run": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.calibrate", "rollsim.stream", "decoder", "colour"),
 }

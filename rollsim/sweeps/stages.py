@@ -23,7 +23,6 @@ that fails records its error and the others go on.
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 import traceback
@@ -57,41 +56,10 @@ def _packets(scene) -> int:
 
 def analytic_row(scene, options: dict) -> dict:
     """The analytic figures of one scene (see the module docstring)."""
-    from rollsim.channel import analytic
-    from rollsim.channel.scene_channel import capture_window_from_scene, led_row_count, mmbp_slots_from_scene, \
-        sdu_duration_from_scene
+    from rollsim.channel.prediction import link_prediction
 
-    cam, link, led = scene.camera, scene.link, scene.led
-    slots = mmbp_slots_from_scene(scene)
-    M, N, r, n, p_e = slots.M, slots.N, link.repeats, _packets(scene), scene.channel.p_e
-    sdu_s = sdu_duration_from_scene(scene)
-    sensor_mm = cam.height_px * cam.pixel_pitch_um * 1e-3
-    return {
-        "M": M, "N": N,
-        "roi_ratio": led_row_count(scene) / cam.height_px,
-        "roi_ratio_eq10": analytic.roi_ratio(link.distance_cm * 10.0, led.size_mm, cam.focal_length_mm, sensor_mm),
-        "sdu_duration_s": sdu_s, "capture_window_s": capture_window_from_scene(scene),
-        "n_packets": n, "repeats": r, "p_e": p_e,
-        **_mmbp_figures(M, N, r, p_e, n, link.payload_bits, sdu_s),
-    }
-
-
-@functools.lru_cache(maxsize=1 << 16)
-def _mmbp_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: int, sdu_s: float) -> dict:
-    """p0, P(message) and expected goodput of RP and RS under the MMBP.
-
-    Pure functions of their arguments, so each worker keeps them: a sweep
-    over physical keys (distance, exposure) meets the same few (M, N) in
-    thousands of cells. The dict is the cached one: callers copy it.
-    """
-    from rollsim.channel import analytic
-
-    figures = {"p0_rp": analytic.mmbp_p0_rp(M, N, r, p_e), "p0_rs": analytic.mmbp_p0_rs(M, N, r, p_e, n)}
-    for strategy in ("rp", "rs"):
-        figures[f"p_message_{strategy}"] = analytic.mmbp_p_message(M, N, r, p_e, n, strategy)
-        figures[f"goodput_{strategy}_bps"] = analytic.mmbp_expected_goodput_bps(M, N, r, p_e, n, strategy,
-                                                                                payload_bits, sdu_s)
-    return figures
+    prediction = link_prediction(scene)
+    return {name: prediction[name] for name in ANALYTIC_COLUMNS}
 
 
 def simulate_row(scene, options: dict) -> dict:

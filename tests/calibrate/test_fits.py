@@ -8,7 +8,16 @@ import warnings
 import numpy as np
 import pytest
 
-from rollsim.calibrate import Trace, calibrate, clopper_pearson, fit_ge, fit_mmbp_cycle, ge_method_of_moments
+from rollsim.calibrate import (
+    Trace,
+    calibrate,
+    clopper_pearson,
+    fit_ge,
+    fit_mmbp_cycle,
+    ge_method_of_moments,
+    p_e_text,
+    zero_failure_bound,
+)
 from rollsim.calibrate.compare import empirical_message_probability, run_lengths, simulate_ge_trace
 from rollsim.calibrate.ge import ge_loglik
 from rollsim.channel.analytic import mmbp_p_message
@@ -105,8 +114,25 @@ def test_method_of_moments_is_close_on_a_long_bursty_trace():
     assert mom.p_e == pytest.approx(0.1, abs=0.02)
 
 
+@pytest.mark.parametrize("trials", [1, 7, 50, 400])
+def test_clopper_pearson_covers_by_exact_enumeration(trials):
+    """P(interval covers p) >= 0.95 for every p, summed exactly over the binomial outcomes."""
+    from scipy.stats import binom
+
+    intervals = np.array([clopper_pearson(k, trials) for k in range(trials + 1)])
+    for p in np.concatenate([np.linspace(1e-6, 1 - 1e-6, 401), 3 / trials * np.array([0.5, 0.9, 0.99])]):
+        p = min(p, 1 - 1e-9)
+        covers = (intervals[:, 0] <= p) & (p <= intervals[:, 1])
+        assert binom.pmf(np.arange(trials + 1), trials, p)[covers].sum() >= 0.95 - 1e-9, p
+
+
 def test_clopper_pearson_known_values():
     assert clopper_pearson(0, 10) == (0.0, pytest.approx(1 - 0.025 ** (1 / 10)))
+    assert clopper_pearson(10, 10) == (pytest.approx(0.025 ** (1 / 10)), 1.0)
+    # Zero failures: the one-sided bound, the rule of three for large n.
+    assert zero_failure_bound(10) == pytest.approx(1 - 0.05 ** (1 / 10), rel=1e-12)
+    assert zero_failure_bound(100_000) == pytest.approx(math.log(20) / 100_000, rel=1e-4)  # ≈ 3/n
+    assert zero_failure_bound(10**15) > 0  # no cancellation to 0
     low, high = clopper_pearson(5, 10)
     assert low == pytest.approx(0.1871, abs=1e-4) and high == pytest.approx(0.8129, abs=1e-4)
 
@@ -156,3 +182,11 @@ def test_simulated_ge_sojourns_are_geometric_across_blocks():
     successes = run_lengths(trace)["success"]
     assert losses.mean() == pytest.approx(1 / 0.2, rel=0.05)
     assert successes.mean() == pytest.approx(1 / 0.001, rel=0.1)
+
+
+def test_p_e_text_never_states_a_bare_zero():
+    fit = {"p_e": 0.0, "p_e_ci95": [0.0, 3.7e-3], "on_emissions": 1000, "on_failures": 0}
+    text = p_e_text(fit)
+    assert "< 0.002991" in text and "one-sided" in text and "1000 PHY-SDUs" in text
+    fit = {"p_e": 0.01, "p_e_ci95": [0.005, 0.02], "on_emissions": 1000, "on_failures": 10}
+    assert p_e_text(fit) == "p_e = 0.01 (95 % CI 0.005 .. 0.02)"

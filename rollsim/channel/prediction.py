@@ -1,0 +1,99 @@
+"""What the physics and the MMBP analysis predict for a scene's link.
+
+One place for the figures that ``rollsim describe`` prints and the sweeps'
+``analytic`` stage tabulates: the LED's rows and the ROI ratio, the MMBP
+``(M, N)`` derived from them, and p0, P(message) and the expected goodput
+of RP and RS. No rendering: geometry and closed forms only.
+"""
+
+from __future__ import annotations
+
+import functools
+
+from rollsim.channel import analytic
+from rollsim.channel.scene_channel import (
+    capture_window_from_scene,
+    mmbp_slots_from_scene,
+    sdu_duration_from_scene,
+)
+from rollsim.optics.geometry import led_rows
+from rollsim.protocol.packets import n_packets
+
+__all__ = ["link_prediction", "mmbp_figures"]
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _cached_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: int, sdu_s: float) -> dict:
+    figures = {"p0_rp": analytic.mmbp_p0_rp(M, N, r, p_e), "p0_rs": analytic.mmbp_p0_rs(M, N, r, p_e, n)}
+    for strategy in ("rp", "rs"):
+        figures[f"p_message_{strategy}"] = analytic.mmbp_p_message(M, N, r, p_e, n, strategy)
+        figures[f"goodput_{strategy}_bps"] = analytic.mmbp_expected_goodput_bps(M, N, r, p_e, n, strategy,
+                                                                                payload_bits, sdu_s)
+    return figures
+
+
+def mmbp_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: int, sdu_s: float) -> dict:
+    """p0, P(message) and expected goodput (bit/s) of RP and RS under the MMBP.
+
+    Keys ``p0_rp``, ``p0_rs``, ``p_message_rp``, ``p_message_rs``,
+    ``goodput_rp_bps``, ``goodput_rs_bps``. Memoised (a sweep over distance
+    or exposure meets the same few ``(M, N)`` in thousands of cells); the
+    dict returned is a fresh copy.
+
+    Parameters
+    ----------
+    M, N : int
+        MMBP ON and OFF slots per cycle.
+    r : int
+        Repeats.
+    p_e : float
+        PHY-SDU error probability inside the window.
+    n : int
+        Packets of the message.
+    payload_bits : int
+        P, bits.
+    sdu_s : float
+        PHY-SDU duration, s.
+    """
+    return dict(_cached_figures(int(M), int(N), int(r), float(p_e), int(n), int(payload_bits), float(sdu_s)))
+
+
+def link_prediction(scene) -> dict:
+    """The scene's link as the physics and the MMBP analysis see it.
+
+    Returns
+    -------
+    dict
+        ``led_rows`` (first and last row the LED's geometric image touches,
+        or None), ``roi_ratio`` (those rows over the frame's), ``roi_ratio_eq10``
+        (the paper's Eq. 10 with the LED's size), ``M``, ``N``,
+        ``sdu_duration_s``, ``capture_window_s``, ``n_packets``, ``repeats``,
+        ``p_e``, and :func:`mmbp_figures`; ``strategy`` and, for it,
+        ``p0``, ``p_message`` and ``goodput_bps``.
+
+    Raises
+    ------
+    ValueError
+        If the scene gives only one of ``channel.M`` and ``channel.N``.
+    """
+    cam, link, led = scene.camera, scene.link, scene.led
+    slots = mmbp_slots_from_scene(scene)
+    first, last = led_rows(scene)
+    rows = max(0, last - first + 1)
+    n, sdu_s = n_packets(link.message_bytes, link.payload_bits), sdu_duration_from_scene(scene)
+    sensor_mm = cam.height_px * cam.pixel_pitch_um * 1e-3
+    figures = mmbp_figures(slots.M, slots.N, link.repeats, scene.channel.p_e, n, link.payload_bits, sdu_s)
+    strategy = link.strategy
+    return {
+        "led_rows": [int(first), int(last)] if rows else None,
+        "roi_ratio": rows / cam.height_px,
+        "roi_ratio_eq10": analytic.roi_ratio(link.distance_cm * 10.0, led.size_mm, cam.focal_length_mm, sensor_mm),
+        "M": slots.M, "N": slots.N,
+        "sdu_duration_s": sdu_s, "capture_window_s": capture_window_from_scene(scene),
+        "n_packets": n, "repeats": link.repeats, "p_e": scene.channel.p_e,
+        **figures,
+        "strategy": strategy,
+        "p0": figures[f"p0_{strategy}"],
+        "p_message": figures[f"p_message_{strategy}"],
+        "goodput_bps": figures[f"goodput_{strategy}_bps"],
+    }
