@@ -261,7 +261,7 @@ def test_cli_writes_every_output_and_refuses_to_overwrite(tmp_path, capsys):
 def test_cli_names_an_unknown_knob_or_effect(capsys):
     assert main(["bench", "accuracy", "paper-default", "--knobs", "no_such_knob"]) == 2
     assert "footprint_edge" in capsys.readouterr().err
-    assert main(["bench", "accuracy", "paper-default", "--effects", "glare"]) == 2
+    assert main(["bench", "accuracy", "paper-default", "--effects", "no_such_effect"]) == 2
     assert "vignetting" in capsys.readouterr().err
 
 
