@@ -473,6 +473,25 @@ def _format_simulation(summary: dict, channel: str) -> str:
     return "\n".join(lines)
 
 
+def cmd_paper(args) -> int:
+    """Run the paper's experiments through rollsim's three layers; write paper.json and report.md."""
+    from rollsim.paper import PaperOptions, run_paper
+
+    options = PaperOptions.make(args.quick, args.frames, args.runs)
+    command = "rollsim paper " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else "rollsim paper"
+
+    def say(text: str) -> None:
+        if not args.quiet:
+            print(f"rollsim paper: {text}", file=sys.stderr)
+
+    document = run_paper(Path(args.out), options, workers=args.workers, scheduler=args.scheduler, force=args.force,
+                         command=command, progress=say)
+    given = [row for row in document if row["deviation"] is not None]
+    print(f"wrote {len(document)} comparisons ({len(given)} with a paper number) to {args.out}/paper.json and "
+          f"{args.out}/report.md")
+    return EXIT_OK
+
+
 def cmd_sweep(args) -> int:
     """Run a sweep of a scene over a grid of keys, on Dask."""
     from tqdm import tqdm
@@ -653,6 +672,20 @@ def _add_sweep_command(sub) -> None:
     p.set_defaults(func=cmd_sweep)
 
 
+def _add_paper_command(sub) -> None:
+    p = sub.add_parser("paper", help="every experiment of the reference paper through rollsim: paper.json and a report")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--quick", action="store_true",
+                   help="a reduced run (60 frames, 200 runs, the pixel pipeline on distances only): a few minutes")
+    p.add_argument("--frames", type=_positive_int, default=None, help="frames per pixel setting (default 300; quick 60)")
+    p.add_argument("--runs", type=_positive_int, default=None, help="runs per event setting (default 1000; quick 200)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None, help="a running Dask scheduler instead")
+    _add_force(p, "a previous rollsim result in DIR")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=cmd_paper)
+
+
 def _add_bench_commands(sub) -> None:
     bench = sub.add_parser("bench", help="benchmarks: speed and memory on this machine")
     bench_sub = bench.add_subparsers(dest="bench", metavar="BENCHMARK")
@@ -728,6 +761,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_pixel_commands(sub)
     _add_channel_commands(sub)
     _add_sweep_command(sub)
+    _add_paper_command(sub)
     _add_bench_commands(sub)
     return parser
 

@@ -1,0 +1,87 @@
+"""rollsim's three layers on one setting: analytic, event simulator, pixel pipeline.
+
+Each function maps a scene (and options) to a small dict of figures with
+units in the names; :mod:`rollsim.paper.compare` puts them beside the
+paper's numbers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+BASE_SCENE = "paper-default"
+
+
+def load(overrides, relax=()):
+    """``paper-default`` with ``overrides`` (``KEY=VALUE`` items)."""
+    from rollsim.scene import load_scene
+
+    return load_scene(BASE_SCENE, list(overrides), relax=relax)
+
+
+def analytic_figures(scene) -> dict:
+    """ROI ratio, M, N, expected goodput and throughput from the physics and the MMBP.
+
+    The throughput is ``(H + P)`` bits per received PHY-SDU: the MMBP
+    receives ``M (1 - p_e)`` of every ``M + N`` emissions of ``T_p`` each.
+    """
+    from rollsim.channel.prediction import link_prediction
+
+    link = link_prediction(scene)
+    M, N = link["M"], link["N"]
+    bits = scene.link.header_bits + scene.link.payload_bits
+    throughput = bits * M * (1.0 - link["p_e"]) / ((M + N) * link["sdu_duration_s"]) if M + N else 0.0
+    return {"roi_ratio": link["roi_ratio"], "M": M, "N": N, "goodput_bps": link["goodput_bps"],
+            "throughput_bps": throughput}
+
+
+def event_figures(scene, channel: str, runs: int, workers: int = 1) -> dict:
+    """Means over ``runs`` runs of the event simulator on ``channel``."""
+    from rollsim.channel.eventsim import simulate_broadcast
+    from rollsim.channel.scene_channel import broadcast_from_scene
+
+    setup = broadcast_from_scene(scene, channel)
+    result = simulate_broadcast(setup.channel, setup.schedule, header_bits=setup.header_bits,
+                                payload_bits=setup.payload_bits, runs=runs, seed=scene.seed, workers=workers)
+    return {"goodput_bps": float(result.goodput_bps.mean()), "throughput_bps": float(result.throughput_bps.mean()),
+            "completed_fraction": float(result.completed.mean()), "runs": runs}
+
+
+def roi_from_mean_on(mean_on_per_frame: float, scene) -> float:
+    """The ROI ratio that gives ``mean_on_per_frame`` whole PHY-SDUs per frame.
+
+    The inverse of the physics (§6.2.2): a capture window W holds
+    ``W / T_p - 1`` whole PHY-SDUs on average, and W is the LED's rows times
+    the row time plus one exposure. Clipped to [0, 1].
+    """
+    from rollsim.channel.scene_channel import sdu_duration_from_scene
+
+    cam = scene.camera
+    window_s = (mean_on_per_frame + 1.0) * sdu_duration_from_scene(scene)
+    rows = (window_s - cam.exposure_s) / cam.row_time_s
+    return float(np.clip(rows / cam.height_px, 0.0, 1.0))
+
+
+def pixel_figures(overrides: tuple, frames: int) -> dict:
+    """The pixel pipeline on ``paper-default`` with ``overrides``, ``frames`` frames, in memory.
+
+    Goodput is the scene's strategy replayed over the decoded outcome
+    trace; throughput is ``(H + P)`` bits per correctly decoded PHY-SDU
+    over the frames' duration; the ROI ratio is the one whose capture
+    window gives the fitted mean of whole PHY-SDUs per frame
+    (:func:`roi_from_mean_on`; 0 when nothing was decoded).
+    """
+    from rollsim.sweeps.stages import run_row
+
+    scene = load([*overrides, f"frames={frames}"])
+    row = run_row(scene, {})
+    bits = scene.link.header_bits + scene.link.payload_bits
+    duration_s = frames * scene.camera.frame_period_s
+    mean_on = row.get("mean_on_per_frame")
+    return {
+        "roi_ratio": roi_from_mean_on(mean_on, scene) if mean_on is not None else 0.0,
+        "goodput_bps": row.get("goodput_replayed_bps") or 0.0,
+        "throughput_bps": bits * row["ok"] / duration_s,
+        "M": row.get("M"), "N": row.get("N"), "ok": row["ok"], "fully_visible": row["fully_visible"],
+        "frames": frames, "seconds": row["render_s"] + row["decode_s"],
+    }

@@ -1,0 +1,116 @@
+"""rollsim paper: the paper's settings, the comparison rows and paper.json's schema."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from rollsim.channel.analytic import mmbp_slots_from_physics
+from rollsim.channel.scene_channel import capture_window_from_scene, sdu_duration_from_scene
+from rollsim.cli import main
+from rollsim.paper.compare import FIELDS, analytic_rows, comparison_row, deviation
+from rollsim.paper.experiments import DISTANCES_CM, ROI_MEASURED, Claim, claims, header_bits_for, settings, split_for
+from rollsim.paper.layers import load, roi_from_mean_on
+from rollsim.protocol import n_packets
+
+RESULTS = Path(__file__).parents[1] / "rollsim" / "bench" / "results" / "paper-quick"
+
+
+def test_distance_settings_differ_from_paper_default_only_in_distance():
+    """One parameter set: the distance experiments change link.distance_cm and nothing else."""
+    found = settings()
+    for d in DISTANCES_CM:
+        assert found[f"d{d}"].overrides == (f"link.distance_cm={d}",)
+    assert ROI_MEASURED == {5: 0.985, 10: 0.724, 15: 0.528, 20: 0.425, 25: 0.312, 30: 0.256, 35: 0.162, 40: 0.058}
+
+
+@pytest.mark.parametrize(("message_bytes", "length"), [(50, 16), (50, 24), (50, 64), (1000, 24), (1, 4)])
+def test_header_bits_are_just_enough(message_bytes, length):
+    header = header_bits_for(message_bytes, length)
+    assert 2**header >= n_packets(message_bytes, length - header)
+    assert header == 1 or 2 ** (header - 1) < n_packets(message_bytes, length - header + 1)
+    assert split_for(message_bytes, length)[:2] == [f"link.header_bits={header}",
+                                                   f"link.payload_bits={length - header}"]
+
+
+def test_default_split_is_the_papers():
+    assert split_for(50, 24)[:2] == ["link.header_bits=5", "link.payload_bits=19"]
+
+
+def test_every_setting_is_a_valid_scene():
+    for setting in settings().values():
+        load(setting.overrides)
+
+
+@pytest.mark.parametrize("distance_cm", [5, 10, 20])
+def test_roi_from_mean_on_inverts_the_physics(distance_cm):
+    scene = load([f"link.distance_cm={distance_cm}"])
+    window = capture_window_from_scene(scene)
+    mean_on = window / sdu_duration_from_scene(scene) - 1  # the physics' whole PHY-SDUs per frame
+    rows = (window - scene.camera.exposure_s) / scene.camera.row_time_s
+    assert roi_from_mean_on(mean_on, scene) == pytest.approx(rows / scene.camera.height_px, rel=1e-12)
+    assert roi_from_mean_on(-5.0, scene) == 0.0 and roi_from_mean_on(1e6, scene) == 1.0
+
+
+def test_deviation_uses_the_most_physical_layer():
+    assert deviation(100.0, {"analytic": 90.0, "event": 95.0, "pixel": 110.0}) == (pytest.approx(0.1), "pixel")
+    assert deviation(100.0, {"analytic": 90.0, "event": None, "pixel": None}) == (pytest.approx(-0.1), "analytic")
+    assert deviation(None, {"pixel": 3.0}) == (None, None)
+    row = comparison_row(Claim("Fig. X", "goodput", "s", 200.0, "bit/s"), {"analytic": 100.0, "event": None})
+    assert tuple(row) == FIELDS and row["deviation"] == -0.5 and row["deviation_layer"] == "analytic"
+
+
+def test_claims_cover_every_figure_the_issue_lists():
+    figures = {claim.figure for claim, _ in claims()} | {row["figure"] for row in analytic_rows()}
+    assert {"Fig. 9", "Fig. 11", "Fig. 12", "Fig. 14", "Fig. 15", "Fig. 16", "Fig. 17", "Fig. 18", "Eq. 7"} <= figures
+    numbers = {(claim.figure, claim.setting, claim.paper, claim.source) for claim, _ in claims()}
+    assert ("Fig. 14", "d = 5 cm, G = 50 B, r = 1", 1700.0, "testbed") in numbers
+    assert ("Fig. 18", "d = 10 cm, 1 kB log, r = 4", 540.0, "camcomsim") in numbers
+
+
+def test_errata_rows_show_what_the_paper_got_wrong():
+    rows = {row["figure"]: row for row in analytic_rows()}
+    assert rows["Fig. 12"]["rollsim_analytic"] == pytest.approx(5 / 7, rel=1e-3)  # M/(M+N), not N/(M+N)
+    assert rows["Eq. 7"]["paper"] > rows["Eq. 7"]["rollsim_analytic"]  # Eq. 7 overestimates p0 for r >= N + 2
+
+
+def check_paper_json(rows: list) -> None:
+    """paper.json's schema: a list of comparison rows with every field, finite numbers, consistent deviations."""
+    assert isinstance(rows, list) and rows
+    for row in rows:
+        assert tuple(row) == FIELDS
+        for name in ("paper", "rollsim_analytic", "rollsim_event", "rollsim_pixel", "deviation"):
+            assert row[name] is None or (isinstance(row[name], (int, float)) and math.isfinite(row[name]))
+        if row["deviation"] is not None:
+            value = row[f"rollsim_{row['deviation_layer']}"]
+            assert row["deviation"] == pytest.approx((value - row["paper"]) / row["paper"])
+        assert isinstance(row["notes"], list)
+
+
+@pytest.mark.slow
+def test_paper_quick_writes_its_report(tmp_path, capsys):
+    out = tmp_path / "paper"
+    assert main(["paper", "--out", str(out), "--quick", "--quiet", "--workers", "2"]) == 0
+    rows = json.loads((out / "paper.json").read_text())
+    check_paper_json(rows)
+    assert {"report.md", "roi_distance.png", "goodput_distance.png", "paper.json"} <= {p.name for p in out.iterdir()}
+    assert "### Fig. 11" in (out / "report.md").read_text()
+    assert main(["paper", "--out", str(out), "--quick", "--quiet"]) == 2  # never replaced without --force
+
+
+def test_tiny_paper_run_matches_the_schema(tmp_path):
+    """The whole command with 2 frames and 5 runs per setting, on a real local Dask cluster."""
+    out = tmp_path / "paper"
+    assert main(["paper", "--out", str(out), "--quick", "--frames", "2", "--runs", "5", "--quiet", "--workers", "2"]) == 0
+    rows = json.loads((out / "paper.json").read_text())
+    check_paper_json(rows)
+    roi = {row["setting"]: row for row in rows if row["figure"] == "Fig. 11"}
+    assert [roi[f"d = {d} cm"]["paper"] for d in DISTANCES_CM] == list(ROI_MEASURED.values())
+    assert all(roi[f"d = {d} cm"]["rollsim_pixel"] is not None for d in DISTANCES_CM)
+
+
+def test_committed_results_match_the_schema():
+    check_paper_json(json.loads((RESULTS / "paper.json").read_text()))
