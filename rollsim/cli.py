@@ -478,7 +478,10 @@ def cmd_paper(args) -> int:
     from rollsim.paper import PaperOptions, run_paper
 
     options = PaperOptions.make(args.quick, args.frames, args.runs)
-    command = "rollsim paper " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else "rollsim paper"
+    given = [("--frames", args.frames), ("--runs", args.runs), ("--workers", args.workers),
+             ("--scheduler", args.scheduler)]
+    command = " ".join(["rollsim paper --out", str(args.out), *(["--quick"] if args.quick else []),
+                        *(f"{flag} {value}" for flag, value in given if value is not None)])
 
     def say(text: str) -> None:
         if not args.quiet:
@@ -486,8 +489,8 @@ def cmd_paper(args) -> int:
 
     document = run_paper(Path(args.out), options, workers=args.workers, scheduler=args.scheduler, force=args.force,
                          command=command, progress=say)
-    given = [row for row in document if row["deviation"] is not None]
-    print(f"wrote {len(document)} comparisons ({len(given)} with a paper number) to {args.out}/paper.json and "
+    compared = [row for row in document if row["deviation"] is not None]
+    print(f"wrote {len(document)} comparisons ({len(compared)} with a paper number) to {args.out}/paper.json and "
           f"{args.out}/report.md")
     return EXIT_OK
 

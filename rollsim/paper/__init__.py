@@ -131,6 +131,6 @@ def run_paper(out: Path, options: PaperOptions, *, workers: Optional[int] = None
             result = compute_comparisons(options, client, progress)
         finally:
             engine.close()
-        document = paper_document(result, options, command)
+        document = paper_document(result)
         write_report(Path(staging), document, result, options, command)
     return document

@@ -21,7 +21,7 @@ READINGS = (
 )
 
 
-def paper_document(result: dict, options, command: str) -> list:
+def paper_document(result: dict) -> list:
     """The ``paper.json`` list: one comparison row per number (see :mod:`rollsim.paper.compare`)."""
     return [_json_safe(row) for row in result["rows"]]
 
@@ -124,7 +124,7 @@ def report_text(document: list, result: dict, options, command: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_report(directory: Path, document: list, result: dict, options=None, command: str = "") -> None:
+def write_report(directory: Path, document: list, result: dict, options, command: str) -> None:
     """Write ``paper.json``, ``report.md`` and the two plots into ``directory`` (a staging directory)."""
     from rollsim.outputs import figure_png
 
