@@ -12,7 +12,14 @@ calibrates the row time from square-wave frames.
 """
 
 from decoder.io import MAX_FRAME_PIXELS, FrameError, FrameReadError, as_frame_array, png_header, read_frame
-from decoder.pipeline import RegionView, decode_frame, decode_frames, decode_profile, inspect_frame
+from decoder.pipeline import (
+    RegionView,
+    decode_frame,
+    decode_frames,
+    decode_profile,
+    inspect_frame,
+    stripe_row_fraction,
+)
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
 from decoder.rowtime import RowTimeError, estimate_row_time
 
@@ -33,4 +40,5 @@ __all__ = [
     "inspect_frame",
     "png_header",
     "read_frame",
+    "stripe_row_fraction",
 ]

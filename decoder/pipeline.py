@@ -186,13 +186,14 @@ def decode_profile(
 
 
 def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, include_failed, include_truncated,
-                           min_contrast) -> tuple[list[DecodedPhySdu], Binarized | None]:
-    """:func:`decode_profile`, and the levels it binarised (None when it found no chip pitch)."""
+                           min_contrast) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
+    """:func:`decode_profile`, the levels it binarised (None when it found no chip pitch), and
+    the first and last frame row where it surely saw the LED's stripes (None if nowhere)."""
     if len(profile) < phy.sdu_chips:
-        return [], None
+        return [], None, None
     pitch = rows_per_chip if rows_per_chip is not None else coarse_rows_per_chip(profile, min_contrast)
     if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
-        return [], None
+        return [], None, None
     levels = binarize_profile(
         profile.values,
         profile.noise,
@@ -207,8 +208,9 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     runs = merge_glitches(correct_edge_bias(runs, edge_bias_chips(runs, pitch), pitch), pitch)
     edges = led_edges(runs, levels, pitch)
     if edges is None:
-        return [], levels
+        return [], levels, None
     cut_left, cut_right, span = edges
+    seen = (profile.first_row + int(round(span[0])), profile.first_row + int(round(span[1])))
     chips = runs_to_chips(runs, pitch, levels.q, cut_left, cut_right)
     found = decode_chip_stream(chips, phy, span)
     keep = found.status != TRUNCATED if not include_truncated else np.ones(len(found), dtype=bool)
@@ -237,7 +239,7 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
             found.confidence[keep].tolist(),
         )
     ]
-    return sdus, levels
+    return sdus, levels, seen
 
 
 def decode_frame(
@@ -319,6 +321,10 @@ class RegionView:
         The binarisation threshold of each profile row (the midpoint of the
         local envelopes, DN); None when no chip pitch could be found.
     sdus : tuple of DecodedPhySdu
+    stripe_rows : (int, int) or None
+        First and last frame row where the decoder surely reads the LED's
+        stripes (from the first to the last ON run that clearly reaches the
+        ON level: where a whole PHY-SDU may lie); None if nowhere.
     """
 
     rows: slice
@@ -326,6 +332,7 @@ class RegionView:
     profile: RowProfile
     threshold: np.ndarray | None
     sdus: tuple
+    stripe_rows: tuple | None = None
 
 
 def inspect_frame(
@@ -347,10 +354,41 @@ def inspect_frame(
                "min_contrast": MIN_CONTRAST_SIGMA}
     views = []
     for index, (cols, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
-        sdus, levels = _decode_profile_levels(profile, phy, pitch, region=index, **options)
+        sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, **options)
         rows = slice(profile.first_row, profile.first_row + len(profile))
-        views.append(RegionView(rows, cols, profile, None if levels is None else levels.threshold, tuple(sdus)))
+        views.append(RegionView(rows, cols, profile, None if levels is None else levels.threshold, tuple(sdus), seen))
     return views
+
+
+def stripe_row_fraction(image, phy: PhyFormat, clock_hz: float | None = None, row_time_s: float | None = None) -> float:
+    """Fraction of the frame's rows in which the decoder reads the LED's stripes.
+
+    The union over LED regions of :attr:`RegionView.stripe_rows`, over the
+    frame's height: the measured counterpart of the paper's ROI ratio
+    (Fig. 11), which counts rows with readable stripes whether or not a
+    whole PHY-SDU fits in them.
+
+    Parameters
+    ----------
+    image : ndarray
+        A frame, as :func:`decode_frame` takes it.
+    phy, clock_hz, row_time_s
+        As for :func:`decode_frame`.
+
+    Returns
+    -------
+    float
+        In [0, 1].
+    """
+    height = np.asarray(image).shape[0]
+    if height == 0:
+        return 0.0
+    seen = np.zeros(height, dtype=bool)
+    for view in inspect_frame(image, phy, clock_hz, row_time_s):
+        if view.stripe_rows is not None:
+            first, last = view.stripe_rows
+            seen[max(first, 0) : min(last, height - 1) + 1] = True
+    return float(seen.mean())
 
 
 _TRAILING_NUMBER = re.compile(r"(\d+)\D*$")

@@ -30,9 +30,14 @@ class DecodedRun:
         Every decoded record (:meth:`decoder.DecodedPhySdu.to_record`).
     render_s, decode_s : list of float
         Seconds of ``pipeline.render`` and of the decoder, per frame.
+    stripe_fractions : list of float
+        With ``measure_stripes``: per frame, the fraction of rows in which
+        the decoder reads the LED's stripes
+        (:func:`decoder.stripe_row_fraction`, the measured ROI ratio); its
+        cost is counted in ``decode_s``.
     """
 
-    def __init__(self, pipeline):
+    def __init__(self, pipeline, measure_stripes: bool = False):
         from rollsim.decode import settings_from_scene
 
         self.pipeline = pipeline
@@ -41,16 +46,21 @@ class DecodedRun:
         self.decoded: list[dict] = []
         self.render_s: list[float] = []
         self.decode_s: list[float] = []
+        self.measure_stripes = bool(measure_stripes)
+        self.stripe_fractions: list[float] = []
 
     def step(self, index: int):
         """Render frame ``index``, time it, decode it; returns the rendered frame."""
-        from decoder import decode_frame
+        from decoder import decode_frame, stripe_row_fraction
 
         start = time.perf_counter()
         frame = self.pipeline.render(index)
         middle = time.perf_counter()
         settings = self._settings
         found = decode_frame(frame.image, settings.phy, settings.clock_hz, settings.row_time_s, index)
+        if self.measure_stripes:
+            self.stripe_fractions.append(
+                stripe_row_fraction(frame.image, settings.phy, settings.clock_hz, settings.row_time_s))
         self.decode_s.append(time.perf_counter() - middle)
         self.render_s.append(middle - start)
         self.truth.append(frame.truth)

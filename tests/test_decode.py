@@ -311,3 +311,29 @@ def test_decode_interrupted_by_a_full_disk_leaves_nothing_and_reruns(rendered, t
     assert {p.name for p in run.iterdir()} == before
     assert main(["decode", str(run), "--quiet", "--workers", "1"]) == 0
     assert (run / "decode.json").exists() and (run / "decoded.jsonl").exists()
+
+
+@pytest.mark.parametrize("distance_cm", [5, 10, 20, 40])
+def test_stripe_rows_are_the_leds_rows(distance_cm):
+    """The measured ROI of a uniform LED is its geometric rows, also where no whole PHY-SDU fits (20, 40 cm)."""
+    from decoder import stripe_row_fraction
+    from rollsim.optics import led_rows
+    from rollsim.render import RenderPipeline
+
+    scene = load_scene("paper-default", [f"link.distance_cm={distance_cm}"])
+    settings = settings_from_scene(scene)
+    first, last = led_rows(scene)
+    geometric = (last - first + 1) / scene.camera.height_px
+    pipeline = RenderPipeline(scene)
+    fractions = [stripe_row_fraction(pipeline.render(k).image, settings.phy, settings.clock_hz, settings.row_time_s)
+                 for k in range(2)]
+    # The span ends at the outermost ON runs that reach the ON level: within two chips (9 rows) of each edge.
+    assert all(geometric - 18 / 1080 <= f <= geometric + 1 / 1080 for f in fractions), (fractions, geometric)
+
+
+def test_stripe_rows_of_a_dark_frame_are_none():
+    from decoder import stripe_row_fraction
+
+    settings = settings_from_scene(load_scene("paper-default"))
+    assert stripe_row_fraction(np.zeros((1080, 1920), np.uint8), settings.phy, settings.clock_hz,
+                               settings.row_time_s) == 0.0

@@ -8,12 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from rollsim.channel.analytic import mmbp_slots_from_physics
-from rollsim.channel.scene_channel import capture_window_from_scene, sdu_duration_from_scene
 from rollsim.cli import main
 from rollsim.paper.compare import FIELDS, analytic_rows, comparison_row, deviation
 from rollsim.paper.experiments import DISTANCES_CM, ROI_MEASURED, Claim, claims, header_bits_for, settings, split_for
-from rollsim.paper.layers import load, roi_from_mean_on
+from rollsim.paper.layers import load
 from rollsim.protocol import n_packets
 
 RESULTS = Path(__file__).parents[1] / "rollsim" / "bench" / "results" / "paper-quick"
@@ -43,16 +41,6 @@ def test_default_split_is_the_papers():
 def test_every_setting_is_a_valid_scene():
     for setting in settings().values():
         load(setting.overrides)
-
-
-@pytest.mark.parametrize("distance_cm", [5, 10, 20])
-def test_roi_from_mean_on_inverts_the_physics(distance_cm):
-    scene = load([f"link.distance_cm={distance_cm}"])
-    window = capture_window_from_scene(scene)
-    mean_on = window / sdu_duration_from_scene(scene) - 1  # the physics' whole PHY-SDUs per frame
-    rows = (window - scene.camera.exposure_s) / scene.camera.row_time_s
-    assert roi_from_mean_on(mean_on, scene) == pytest.approx(rows / scene.camera.height_px, rel=1e-12)
-    assert roi_from_mean_on(-5.0, scene) == 0.0 and roi_from_mean_on(1e6, scene) == 1.0
 
 
 def test_deviation_uses_the_most_physical_layer():

@@ -7,8 +7,6 @@ paper's numbers.
 
 from __future__ import annotations
 
-import numpy as np
-
 BASE_SCENE = "paper-default"
 
 
@@ -47,29 +45,15 @@ def event_figures(scene, channel: str, runs: int, workers: int = 1) -> dict:
             "completed_fraction": float(result.completed.mean()), "runs": runs}
 
 
-def roi_from_mean_on(mean_on_per_frame: float, scene) -> float:
-    """The ROI ratio that gives ``mean_on_per_frame`` whole PHY-SDUs per frame.
-
-    The inverse of the physics (§6.2.2): a capture window W holds
-    ``W / T_p - 1`` whole PHY-SDUs on average, and W is the LED's rows times
-    the row time plus one exposure. Clipped to [0, 1].
-    """
-    from rollsim.channel.scene_channel import sdu_duration_from_scene
-
-    cam = scene.camera
-    window_s = (mean_on_per_frame + 1.0) * sdu_duration_from_scene(scene)
-    rows = (window_s - cam.exposure_s) / cam.row_time_s
-    return float(np.clip(rows / cam.height_px, 0.0, 1.0))
-
-
 def pixel_figures(overrides: tuple, frames: int) -> dict:
     """The pixel pipeline on ``paper-default`` with ``overrides``, ``frames`` frames, in memory.
 
     Goodput is the scene's strategy replayed over the decoded outcome
     trace; throughput is ``(H + P)`` bits per correctly decoded PHY-SDU
-    over the frames' duration; the ROI ratio is the one whose capture
-    window gives the fitted mean of whole PHY-SDUs per frame
-    (:func:`roi_from_mean_on`; 0 when nothing was decoded).
+    over the frames' duration; the ROI ratio is the mean fraction of rows
+    in which the decoder reads the LED's stripes
+    (:func:`decoder.stripe_row_fraction`), whether or not a whole PHY-SDU
+    fits in them, as the paper measured it.
     """
     from rollsim.sweeps.stages import run_row
 
@@ -77,9 +61,8 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
     row = run_row(scene, {})
     bits = scene.link.header_bits + scene.link.payload_bits
     duration_s = frames * scene.camera.frame_period_s
-    mean_on = row.get("mean_on_per_frame")
     return {
-        "roi_ratio": roi_from_mean_on(mean_on, scene) if mean_on is not None else 0.0,
+        "roi_ratio": row["roi_ratio"],
         "goodput_bps": row.get("goodput_replayed_bps") or 0.0,
         "throughput_bps": bits * row["ok"] / duration_s,
         "M": row.get("M"), "N": row.get("N"), "ok": row["ok"], "fully_visible": row["fully_visible"],

@@ -16,8 +16,8 @@ READINGS = (
     "the camcomsim channel keeps CamComSim's H = 5 (its sequence numbers wrap).",
     "Testbed numbers are compared with the pixel pipeline (deviation) and rollsim's mmbp channel; CamComSim's "
     "numbers with rollsim's camcomsim channel.",
-    "The pixel ROI ratio is the one whose capture window holds the fitted mean of whole PHY-SDUs per frame "
-    "(rollsim.paper.layers.roi_from_mean_on).",
+    "The pixel ROI ratio is the mean fraction of rows in which the decoder reads the LED's stripes "
+    "(decoder.stripe_row_fraction), whether or not a whole PHY-SDU fits in them.",
 )
 
 

@@ -42,7 +42,7 @@ SIMULATE_COLUMNS = (
 )
 RUN_COLUMNS = (
     "frames", "emissions", "fully_visible", "ok", "corrupted", "missed", "undetected_error", "not_visible",
-    "false_decodes", "error_rate", "M", "N", "p_e", "p_e_ci_low", "p_e_ci_high", "mean_on_per_frame",
+    "false_decodes", "error_rate", "roi_ratio", "M", "N", "p_e", "p_e_ci_low", "p_e_ci_high", "mean_on_per_frame",
     "M_physics", "N_physics", "goodput_replayed_bps", "goodput_predicted_bps", "fit_error", "render_s", "decode_s",
 )
 STAGE_COLUMNS = {"analytic": ANALYTIC_COLUMNS, "simulate": SIMULATE_COLUMNS, "run": RUN_COLUMNS}
@@ -94,7 +94,7 @@ def run_row(scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
     from rollsim.render import RenderPipeline
     from rollsim.stream import DecodedRun
 
-    run = DecodedRun(RenderPipeline(scene))
+    run = DecodedRun(RenderPipeline(scene), measure_stripes=True)
     if frames_dir is not None:
         _write_frames(run, scene, frames_dir)
     else:
@@ -106,6 +106,7 @@ def run_row(scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
     row = {"frames": scene.frames, "emissions": summary["emissions"], "fully_visible": summary["fully_visible"],
            **{name: counts[name] for name in ("ok", "corrupted", "missed", "undetected_error", "not_visible")},
            "false_decodes": summary["false_decodes"], "error_rate": summary["error_rate"],
+           "roi_ratio": float(np.mean(run.stripe_fractions)) if run.stripe_fractions else 0.0,
            "render_s": float(sum(run.render_s)), "decode_s": float(sum(run.decode_s))}
     physics = physics_prediction(scene)
     row.update(M_physics=physics["M"], N_physics=physics["N"])
