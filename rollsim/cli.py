@@ -490,7 +490,7 @@ def cmd_paper(args) -> int:
     document = run_paper(Path(args.out), options, workers=args.workers, scheduler=args.scheduler, force=args.force,
                          command=command, progress=say)
     compared = [row for row in document if row["deviation"] is not None]
-    print(f"wrote {len(document)} comparisons ({len(compared)} with a paper number) to {args.out}/paper.json and "
+    print(f"wrote {len(document)} comparisons ({len(compared)} with a deviation from the paper) to {args.out}/paper.json and "
           f"{args.out}/report.md")
     return EXIT_OK
 

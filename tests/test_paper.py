@@ -98,6 +98,10 @@ def test_tiny_paper_run_matches_the_schema(tmp_path):
     roi = {row["setting"]: row for row in rows if row["figure"] == "Fig. 11"}
     assert [roi[f"d = {d} cm"]["paper"] for d in DISTANCES_CM] == list(ROI_MEASURED.values())
     assert all(roi[f"d = {d} cm"]["rollsim_pixel"] is not None for d in DISTANCES_CM)
+    p_e = [row for row in rows if row["quantity"] == "p_e"]
+    assert len(p_e) == len(DISTANCES_CM)
+    for row in p_e:  # an interval, or the one-sided bound, never a bare 0
+        assert row["rollsim_pixel"] is None or any("95 %" in note for note in row["notes"])
 
 
 def test_committed_results_match_the_schema():

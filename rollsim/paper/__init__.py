@@ -70,8 +70,8 @@ def compute_comparisons(options: PaperOptions, client, progress: Optional[Callab
     Returns
     -------
     dict
-        ``rows`` (the comparison rows), ``pixel`` (per setting: the pixel
-        figures, for the report's curves), ``seconds``.
+        ``rows`` (the comparison rows), ``figures`` (per setting and layer:
+        the figures behind them, for the report's curves), ``seconds``.
     """
     from distributed import as_completed
 
@@ -106,9 +106,10 @@ def compute_comparisons(options: PaperOptions, client, progress: Optional[Callab
     rows = analytic_rows()
     rows += message_probability_rows(3, 2, 0.001, 22, r_values, one_round.result())
     for claim, key in claims():
-        rows.append(comparison_row(claim, layer_values(claim, figures[key])))
-    pixel = {key: found["pixel"] for key, found in figures.items() if found.get("pixel") is not None}
-    return {"rows": rows, "figures": figures, "pixel": pixel, "seconds": time.perf_counter() - start}
+        pixel = figures[key].get("pixel") or {}
+        notes = [pixel["p_e_text"]] if claim.quantity == "p_e" and pixel.get("p_e_text") else []
+        rows.append(comparison_row(claim, layer_values(claim, figures[key]), notes))
+    return {"rows": rows, "figures": figures, "seconds": time.perf_counter() - start}
 
 
 def run_paper(out: Path, options: PaperOptions, *, workers: Optional[int] = None, scheduler: Optional[str] = None,

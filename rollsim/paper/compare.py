@@ -17,7 +17,7 @@ from rollsim.paper.experiments import Claim
 FIELDS = ("figure", "quantity", "setting", "paper", "rollsim_analytic", "rollsim_event", "rollsim_pixel", "unit",
           "deviation", "deviation_layer", "source", "notes")
 _LAYER_ORDER = ("pixel", "event", "analytic")
-_QUANTITY_KEYS = {"ROI ratio": "roi_ratio", "goodput": "goodput_bps", "throughput": "throughput_bps"}
+_QUANTITY_KEYS = {"ROI ratio": "roi_ratio", "goodput": "goodput_bps", "throughput": "throughput_bps", "p_e": "p_e"}
 
 
 def deviation(paper, values: dict) -> tuple:
@@ -29,14 +29,18 @@ def deviation(paper, values: dict) -> tuple:
     return None, None
 
 
-def comparison_row(claim: Claim, values: dict) -> dict:
-    """One row of ``paper.json`` from a claim and ``{layer: value or None}``."""
-    dev, layer = deviation(claim.paper, values)
+def comparison_row(claim: Claim, values: dict, notes=()) -> dict:
+    """One row of ``paper.json`` from a claim, ``{layer: value or None}`` and notes of this run.
+
+    A "paper parameter" (Table 1's p_e) is an input the paper assumed, not
+    a measurement: it is shown, with no deviation.
+    """
+    dev, layer = deviation(claim.paper, values) if claim.source != "paper parameter" else (None, None)
     return {
         "figure": claim.figure, "quantity": claim.quantity, "setting": claim.setting, "paper": claim.paper,
         "rollsim_analytic": values.get("analytic"), "rollsim_event": values.get("event"),
         "rollsim_pixel": values.get("pixel"), "unit": claim.unit, "deviation": dev, "deviation_layer": layer,
-        "source": claim.source, "notes": list(claim.notes),
+        "source": claim.source, "notes": [*claim.notes, *notes],
     }
 
 

@@ -123,6 +123,9 @@ def claims() -> list[tuple[Claim, str]]:
                        ("event",)), "d10"))
     rows.append((Claim("Fig. 16", "throughput", "d = 10 cm, G = 50 B, r = 1", 2200.0, "bit/s", "camcomsim",
                        ("event",)), "d10"))
+    for d in DISTANCES_CM:
+        rows.append((Claim("Table 1", "p_e", f"d = {d} cm, G = 50 B, r = 1", 0.001, "", "paper parameter", ("pixel",),
+                           ("the paper's assumed p_e; rollsim's is fitted to the decoded outcomes",)), f"d{d}"))
     rows.append((Claim("Fig. 14", "goodput", "d = 5 cm, G = 50 B, r = 1", 1700.0, "bit/s"), "d5"))
     rows.append((Claim("Fig. 14", "goodput", "d = 5 cm, G = 50 B, r = 1", 1600.0, "bit/s", "camcomsim",
                        ("event",)), "d5"))

@@ -57,6 +57,8 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
     """
     from rollsim.sweeps.stages import run_row
 
+    from rollsim.calibrate import p_e_text
+
     scene = load([*overrides, f"frames={frames}"])
     row = run_row(scene, {})
     bits = scene.link.header_bits + scene.link.payload_bits
@@ -65,6 +67,10 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
         "roi_ratio": row["roi_ratio"],
         "goodput_bps": row.get("goodput_replayed_bps") or 0.0,
         "throughput_bps": bits * row["ok"] / duration_s,
+        "p_e": row.get("p_e"),
+        "p_e_text": None if row.get("p_e") is None else p_e_text(
+            {"p_e": row["p_e"], "p_e_ci95": [row["p_e_ci_low"], row["p_e_ci_high"]],
+             "on_emissions": row["on_emissions"], "on_failures": row["on_failures"]}),
         "M": row.get("M"), "N": row.get("N"), "ok": row["ok"], "fully_visible": row["fully_visible"],
         "frames": frames, "seconds": row["render_s"] + row["decode_s"],
     }

@@ -36,6 +36,12 @@ def _cell(value) -> str:
     return format_number(value) if isinstance(value, float) else str(value)
 
 
+def _pixel_cell(row: dict) -> str:
+    """The pixel value; for p_e, with its interval or one-sided bound (never a bare 0)."""
+    stated = [note for note in row["notes"] if note.startswith("p_e = ")]
+    return stated[0] if row["quantity"] == "p_e" and stated else _cell(row["rollsim_pixel"])
+
+
 def _deviation_cell(row: dict) -> str:
     if row["deviation"] is None:
         return "–"
@@ -50,10 +56,10 @@ def figure_tables(rows: list) -> list[str]:
     for figure in figures:
         mine = [row for row in rows if row["figure"] == figure]
         table = [[row["quantity"], row["setting"], row["source"], _cell(row["paper"]), _cell(row["rollsim_analytic"]),
-                  _cell(row["rollsim_event"]), _cell(row["rollsim_pixel"]), row["unit"], _deviation_cell(row)]
+                  _cell(row["rollsim_event"]), _pixel_cell(row), row["unit"], _deviation_cell(row)]
                  for row in mine]
         lines += [f"### {figure}", "", *markdown_table(table, tuple(header)), ""]
-        notes = sorted({note for row in mine for note in row["notes"]})
+        notes = sorted({note for row in mine for note in row["notes"] if not note.startswith("p_e = ")})
         lines += [f"- {note}" for note in notes]
         if notes:
             lines.append("")

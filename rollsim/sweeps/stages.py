@@ -42,7 +42,8 @@ SIMULATE_COLUMNS = (
 )
 RUN_COLUMNS = (
     "frames", "emissions", "fully_visible", "ok", "corrupted", "missed", "undetected_error", "not_visible",
-    "false_decodes", "error_rate", "roi_ratio", "M", "N", "p_e", "p_e_ci_low", "p_e_ci_high", "mean_on_per_frame",
+    "false_decodes", "error_rate", "roi_ratio", "M", "N", "p_e", "p_e_ci_low", "p_e_ci_high", "on_emissions",
+    "on_failures", "mean_on_per_frame",
     "M_physics", "N_physics", "goodput_replayed_bps", "goodput_predicted_bps", "fit_error", "render_s", "decode_s",
 )
 STAGE_COLUMNS = {"analytic": ANALYTIC_COLUMNS, "simulate": SIMULATE_COLUMNS, "run": RUN_COLUMNS}
@@ -120,6 +121,7 @@ def run_row(scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
         row["fit_error"] = clip(str(exc), 200)
     else:
         row.update(M=fit.M, N=fit.N, p_e=fit.p_e, p_e_ci_low=fit.p_e_ci95[0], p_e_ci_high=fit.p_e_ci95[1],
+                   on_emissions=fit.on_emissions, on_failures=fit.on_failures,
                    mean_on_per_frame=fit.mean_on_per_frame,
                    goodput_predicted_bps=mmbp_expected_goodput_bps(fit.M, fit.N, link.repeats, fit.p_e, n,
                                                                    link.strategy, link.payload_bits, sdu_s))
