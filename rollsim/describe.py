@@ -120,7 +120,7 @@ def _link_lines(link: dict, height_px: int) -> list[str]:
     return [
         f"LED        {where} (geometric image): ROI ratio {link['roi_ratio']:.3f} "
         f"(the paper's Eq. 10: {link['roi_ratio_eq10']:.3f})",
-        f"MMBP       M = {link['M']}, N = {link['N']} from the physics (capture window "
+        f"MMBP       M = {link['M']}, N = {link['N']} from the {link['mn_from']} (capture window "
         f"{link['capture_window_s'] * 1e3:.4g} ms), p_e = {link['p_e']:g}",
         f"predicted  {link['strategy'].upper()} r={link['repeats']}, {link['n_packets']} packets: p0 = {link['p0']:.4g}, "
         f"P(all packets in one round) = {link['p_message']:.4g}, expected goodput {link['goodput_bps']:.4g} bit/s",

@@ -76,6 +76,9 @@ def test_describe_predicts_the_link(capsys):
     assert link["p0"] == link["p0_rs"] == analytic.mmbp_p0_rs(slots.M, slots.N, 3, 0.001, 22)
     assert link["goodput_bps"] == analytic.mmbp_expected_goodput_bps(slots.M, slots.N, 3, 0.001, 22, "rs", 19, 0.007)
     assert 0 < link["goodput_bps"] < 19 / 0.007  # below one payload per PHY-SDU time
+    assert link["mn_from"] == "physics"
+    assert main(["describe", "paper-default", "--set", "channel.M=4", "--set", "channel.N=1"]) == 0
+    assert "M = 4, N = 1 from the scene" in capsys.readouterr().out
 
 
 def test_debug_shows_traceback():

@@ -66,7 +66,8 @@ def link_prediction(scene) -> dict:
     dict
         ``led_rows`` (first and last row the LED's geometric image touches,
         or None), ``roi_ratio`` (those rows over the frame's), ``roi_ratio_eq10``
-        (the paper's Eq. 10 with the LED's size), ``M``, ``N``,
+        (the paper's Eq. 10 with the LED's size), ``M``, ``N``, ``mn_from``
+        ("physics", or "scene" where ``channel.M`` and ``channel.N`` are given),
         ``sdu_duration_s``, ``capture_window_s``, ``n_packets``, ``repeats``,
         ``p_e``, and :func:`mmbp_figures`; ``strategy`` and, for it,
         ``p0``, ``p_message`` and ``goodput_bps``.
@@ -88,7 +89,7 @@ def link_prediction(scene) -> dict:
         "led_rows": [int(first), int(last)] if rows else None,
         "roi_ratio": rows / cam.height_px,
         "roi_ratio_eq10": analytic.roi_ratio(link.distance_cm * 10.0, led.size_mm, cam.focal_length_mm, sensor_mm),
-        "M": slots.M, "N": slots.N,
+        "M": slots.M, "N": slots.N, "mn_from": "physics" if scene.channel.M is None else "scene",
         "sdu_duration_s": sdu_s, "capture_window_s": capture_window_from_scene(scene),
         "n_packets": n, "repeats": link.repeats, "p_e": scene.channel.p_e,
         **figures,
