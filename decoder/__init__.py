@@ -19,6 +19,7 @@ from decoder.pipeline import (
     decode_profile,
     inspect_frame,
     stripe_row_fraction,
+    views_stripe_fraction,
 )
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
 from decoder.rowtime import RowTimeError, estimate_row_time
@@ -41,4 +42,5 @@ __all__ = [
     "png_header",
     "read_frame",
     "stripe_row_fraction",
+    "views_stripe_fraction",
 ]

@@ -380,11 +380,15 @@ def stripe_row_fraction(image, phy: PhyFormat, clock_hz: float | None = None, ro
     float
         In [0, 1].
     """
-    height = np.asarray(image).shape[0]
+    return views_stripe_fraction(inspect_frame(image, phy, clock_hz, row_time_s), np.asarray(image).shape[0])
+
+
+def views_stripe_fraction(views: Iterable[RegionView], height: int) -> float:
+    """:func:`stripe_row_fraction` of a frame ``height`` rows tall already inspected (``views``)."""
     if height == 0:
         return 0.0
     seen = np.zeros(height, dtype=bool)
-    for view in inspect_frame(image, phy, clock_hz, row_time_s):
+    for view in views:
         if view.stripe_rows is not None:
             first, last = view.stripe_rows
             seen[max(first, 0) : min(last, height - 1) + 1] = True

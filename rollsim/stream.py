@@ -33,8 +33,8 @@ class DecodedRun:
     stripe_fractions : list of float
         With ``measure_stripes``: per frame, the fraction of rows in which
         the decoder reads the LED's stripes
-        (:func:`decoder.stripe_row_fraction`, the measured ROI ratio); its
-        cost is counted in ``decode_s``.
+        (:func:`decoder.stripe_row_fraction`, the measured ROI ratio), from
+        the same decoding pass.
     """
 
     def __init__(self, pipeline, measure_stripes: bool = False):
@@ -51,16 +51,21 @@ class DecodedRun:
 
     def step(self, index: int):
         """Render frame ``index``, time it, decode it; returns the rendered frame."""
-        from decoder import decode_frame, stripe_row_fraction
+        from decoder import decode_frame, inspect_frame, views_stripe_fraction
 
         start = time.perf_counter()
         frame = self.pipeline.render(index)
         middle = time.perf_counter()
         settings = self._settings
-        found = decode_frame(frame.image, settings.phy, settings.clock_hz, settings.row_time_s, index)
+        decode_args = (frame.image, settings.phy, settings.clock_hz, settings.row_time_s, index)
         if self.measure_stripes:
-            self.stripe_fractions.append(
-                stripe_row_fraction(frame.image, settings.phy, settings.clock_hz, settings.row_time_s))
+            # One pass gives both: inspect_frame decodes as decode_frame does
+            # (same options) and keeps where it read stripes.
+            views = inspect_frame(*decode_args)
+            found = [sdu for view in views for sdu in view.sdus]
+            self.stripe_fractions.append(views_stripe_fraction(views, frame.image.shape[0]))
+        else:
+            found = decode_frame(*decode_args)
         self.decode_s.append(time.perf_counter() - middle)
         self.render_s.append(middle - start)
         self.truth.append(frame.truth)

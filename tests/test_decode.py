@@ -337,3 +337,18 @@ def test_stripe_rows_of_a_dark_frame_are_none():
     settings = settings_from_scene(load_scene("paper-default"))
     assert stripe_row_fraction(np.zeros((1080, 1920), np.uint8), settings.phy, settings.clock_hz,
                                settings.row_time_s) == 0.0
+
+
+def test_measuring_stripes_decodes_the_same():
+    """DecodedRun with measure_stripes takes the PHY-SDUs from inspect_frame's one pass: the same records."""
+    from rollsim.render import RenderPipeline
+    from rollsim.stream import DecodedRun
+
+    scene = load_scene("paper-default", ["link.distance_cm=10"])
+    plain, measured = DecodedRun(RenderPipeline(scene)), DecodedRun(RenderPipeline(scene), measure_stripes=True)
+    for index in range(3):
+        plain.step(index)
+        measured.step(index)
+    assert measured.decoded == plain.decoded and plain.decoded
+    assert len(measured.stripe_fractions) == 3 and plain.stripe_fractions == []
+    assert all(0.4 < f < 0.5 for f in measured.stripe_fractions)  # the LED's rows at 10 cm: 0.474

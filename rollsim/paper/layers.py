@@ -34,13 +34,10 @@ def analytic_figures(scene) -> dict:
 
 
 def event_figures(scene, channel: str, runs: int, workers: int = 1) -> dict:
-    """Means over ``runs`` runs of the event simulator on ``channel``."""
-    from rollsim.channel.eventsim import simulate_broadcast
-    from rollsim.channel.scene_channel import broadcast_from_scene
+    """Means over ``runs`` runs of the event simulator on ``channel`` (seeded by the scene)."""
+    from rollsim.channel.scene_channel import simulate_scene
 
-    setup = broadcast_from_scene(scene, channel)
-    result = simulate_broadcast(setup.channel, setup.schedule, header_bits=setup.header_bits,
-                                payload_bits=setup.payload_bits, runs=runs, seed=scene.seed, workers=workers)
+    result = simulate_scene(scene, channel, runs=runs, workers=workers)
     return {"goodput_bps": float(result.goodput_bps.mean()), "throughput_bps": float(result.throughput_bps.mean()),
             "completed_fraction": float(result.completed.mean()), "runs": runs}
 

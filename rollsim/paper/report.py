@@ -70,48 +70,52 @@ def _distance_series(result: dict, layer: str, key: str) -> list:
     return [(result["figures"].get(f"d{d}", {}).get(layer) or {}).get(key) for d in DISTANCES_CM]
 
 
+def _save_distance_plot(file, ylabel: str, title: str, draw, ylim=None) -> None:
+    """A plot against distance: matplotlib's Figure directly (no pyplot state) and no
+    software stamp in the PNG, as the run report's plots, so the same run gives the same file."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.5, 4.0), layout="constrained")
+    ax = fig.subplots()
+    draw(ax)
+    ax.set(xlabel="distance (cm)", ylabel=ylabel, title=title)
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    fig.savefig(file, format="png", dpi=110, metadata={"Software": None})
+
+
+def _nan_for_none(values: list) -> list:
+    return [math.nan if v is None else v for v in values]
+
+
 def plot_roi(result: dict, file) -> None:
     """Fig. 11: the measured ROI ratio against rollsim's, by distance."""
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    def draw(ax):
+        ax.plot(DISTANCES_CM, list(ROI_MEASURED.values()), "o-", label="paper (testbed, Fig. 11)")
+        ax.plot(DISTANCES_CM, _distance_series(result, "analytic", "roi_ratio"), "s--",
+                label="rollsim analytic (LED rows)")
+        ax.plot(DISTANCES_CM, _nan_for_none(_distance_series(result, "pixel", "roi_ratio")), "^-",
+                label="rollsim pixel pipeline")
 
-    fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(DISTANCES_CM, list(ROI_MEASURED.values()), "o-", label="paper (testbed, Fig. 11)")
-    ax.plot(DISTANCES_CM, _distance_series(result, "analytic", "roi_ratio"), "s--", label="rollsim analytic (LED rows)")
-    pixel = _distance_series(result, "pixel", "roi_ratio")
-    ax.plot(DISTANCES_CM, [math.nan if v is None else v for v in pixel], "^-", label="rollsim pixel pipeline")
-    ax.set(xlabel="distance (cm)", ylabel="ROI ratio", ylim=(0, 1.05), title="ROI ratio against distance")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(file, format="png", dpi=110)
-    plt.close(fig)
+    _save_distance_plot(file, "ROI ratio", "ROI ratio against distance", draw, ylim=(0, 1.05))
 
 
 def plot_goodput(result: dict, file) -> None:
     """Fig. 16: goodput and throughput against distance, every layer."""
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    def draw(ax):
+        for layer, style in {"analytic": "--", "event": ":", "pixel": "-", "camcomsim": "-."}.items():
+            for key, colour in (("goodput_bps", "tab:green"), ("throughput_bps", "tab:red")):
+                values = _nan_for_none(_distance_series(result, layer, key))
+                if not all(math.isnan(v) for v in values):
+                    ax.plot(DISTANCES_CM, values, style, color=colour, label=f"{key.split('_')[0]}, {layer}")
+        ax.plot([10], [1000], "o", color="tab:green", label="goodput, testbed")
+        ax.plot([10], [1940], "o", color="tab:red", label="throughput, testbed")
 
-    fig, ax = plt.subplots(figsize=(6.5, 4))
-    styles = {"analytic": "--", "event": ":", "pixel": "-", "camcomsim": "-."}
-    for layer, style in styles.items():
-        for key, colour in (("goodput_bps", "tab:green"), ("throughput_bps", "tab:red")):
-            values = [math.nan if v is None else v for v in _distance_series(result, layer, key)]
-            if not all(math.isnan(v) for v in values):
-                ax.plot(DISTANCES_CM, values, style, color=colour, label=f"{key.split('_')[0]}, {layer}")
-    ax.plot([10], [1000], "o", color="tab:green", label="goodput, testbed")
-    ax.plot([10], [1940], "o", color="tab:red", label="throughput, testbed")
-    ax.set(xlabel="distance (cm)", ylabel="bit/s", title="Goodput and throughput against distance (G = 50 B, r = 1)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
-    fig.tight_layout()
-    fig.savefig(file, format="png", dpi=110)
-    plt.close(fig)
+    _save_distance_plot(file, "bit/s", "Goodput and throughput against distance (G = 50 B, r = 1)", draw)
 
 
 def report_text(document: list, result: dict, options, command: str) -> str:
