@@ -42,6 +42,8 @@ DEFAULT_CLOSE_ROWS = 100
 # An edge run longer or shorter than a whole number of chips by more than
 # this (chips) is taken as cut by the footprint's edge.
 CUT_RUN_OFF_GRID_CHIPS = 0.2
+# Least rows of a profile worth binarising: a few chips at the least pitch.
+MIN_PROFILE_ROWS = 8
 # Tolerance (rows) of the LED's row span (see timing.CUT_TOLERANCE_ROWS).
 SPAN_TOLERANCE_ROWS = 0.5
 
@@ -189,7 +191,10 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
                            min_contrast) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
     """:func:`decode_profile`, the levels it binarised (None when it found no chip pitch), and
     the first and last frame row where it surely saw the LED's stripes (None if nowhere)."""
-    if len(profile) < phy.sdu_chips:
+    # A region too short for a PHY-SDU may still show stripes (the LED's
+    # rows are measured even where no PHY-SDU fits); fewer rows than the
+    # shortest run pattern cannot.
+    if len(profile) < MIN_PROFILE_ROWS:
         return [], None, None
     pitch = rows_per_chip if rows_per_chip is not None else coarse_rows_per_chip(profile, min_contrast)
     if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
@@ -304,7 +309,7 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
     frame = as_frame_array(image)
     pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz is not None and row_time_s is not None else None
     blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
-    for region in detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions):
+    for region in detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch):
         yield blocks.block_col_span(region.block_cols), row_profile(blocks, region), pitch
 
 

@@ -420,7 +420,12 @@ def cmd_simulate(args) -> int:
     from tqdm import tqdm
 
     from rollsim.channel.eventsim import simulate_broadcast, to_camcomsim
-    from rollsim.channel.scene_channel import broadcast_from_scene, camcomsim_parameters, scene_relaxations
+    from rollsim.channel.scene_channel import (
+        broadcast_from_scene,
+        camcomsim_parameters,
+        check_runs_first,
+        scene_relaxations,
+    )
     from rollsim.scene import load_scene
 
     camcomsim_file = args.format == "camcomsim"
@@ -429,6 +434,7 @@ def cmd_simulate(args) -> int:
     overrides = [*args.overrides, *([f"seed={args.seed}"] if args.seed is not None else [])]
     scene = load_scene(args.scene, overrides, relax=scene_relaxations(args.channel))
     try:
+        check_runs_first(scene, args.runs, args.workers, args.max_emissions, camcomsim_file)
         setup = broadcast_from_scene(scene, args.channel)
         for warning in setup.warnings:
             _simulation_warning(warning)

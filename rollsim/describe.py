@@ -118,7 +118,7 @@ def _link_lines(link: dict, height_px: int) -> list[str]:
     rows = link["led_rows"]
     where = f"rows {rows[0]}-{rows[1]} of {height_px}" if rows else f"no row of {height_px}"
     return [
-        f"LED        {where} (geometric image): ROI ratio {link['roi_ratio']:.3f} "
+        f"LED        {where} ({link['led_rows_from']}): ROI ratio {link['roi_ratio']:.3f} "
         f"(the paper's Eq. 10: {link['roi_ratio_eq10']:.3f})",
         f"MMBP       M = {link['M']}, N = {link['N']} from the {link['mn_from']} (capture window "
         f"{link['capture_window_s'] * 1e3:.4g} ms), p_e = {link['p_e']:g}",

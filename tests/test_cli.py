@@ -55,18 +55,20 @@ def test_describe_text_and_json(capsys):
 
 
 def test_describe_predicts_the_link(capsys):
-    """ROI, M and N from the geometry; p0 and goodput from the MMBP closed forms."""
+    """ROI, M and N from the geometry (of the geometric LED; with glare, from
+    the rows whose stripes clear the noise); p0 and goodput from the MMBP
+    closed forms."""
     from rollsim.channel import analytic
     from rollsim.optics import led_rows
     from rollsim.scene import load_scene
 
     args = ["--set", "link.strategy=rs", "--set", "link.repeats=3", "--set", "link.distance_cm=10"]
-    assert main(["describe", "paper-default", *args]) == 0
+    assert main(["describe", "paper-geometric", *args]) == 0
     text = capsys.readouterr().out
-    assert "ROI ratio" in text and "M = " in text and "expected goodput" in text
-    assert main(["describe", "paper-default", "--json", *args]) == 0
+    assert "ROI ratio" in text and "M = " in text and "expected goodput" in text and "(geometric image)" in text
+    assert main(["describe", "paper-geometric", "--json", *args]) == 0
     link = json.loads(capsys.readouterr().out)["link"]
-    scene = load_scene("paper-default", [a for a in args if a != "--set"])
+    scene = load_scene("paper-geometric", [a for a in args if a != "--set"])
     first, last = led_rows(scene)
     assert link["led_rows"] == [first, last]
     assert link["roi_ratio"] == (last - first + 1) / 1080
@@ -79,6 +81,18 @@ def test_describe_predicts_the_link(capsys):
     assert link["mn_from"] == "physics"
     assert main(["describe", "paper-default", "--set", "channel.M=4", "--set", "channel.N=1"]) == 0
     assert "M = 4, N = 1 from the scene" in capsys.readouterr().out
+
+
+def test_describe_with_glare_counts_the_readable_rows(capsys):
+    """With glare the LED's rows are the renderer's: those whose stripes clear the noise."""
+    from rollsim.render import RenderPipeline
+    from rollsim.scene import load_scene
+
+    assert main(["describe", "paper-default", "--json", "--set", "link.distance_cm=20"]) == 0
+    link = json.loads(capsys.readouterr().out)["link"]
+    setup = RenderPipeline(load_scene("paper-default", ["link.distance_cm=20"])).setup
+    assert link["led_rows"] == list(setup.led_rows) and link["led_rows_from"] == "stripes above the noise"
+    assert 0 < link["roi_ratio"] < 1 and link["M"] >= 1
 
 
 def test_debug_shows_traceback():

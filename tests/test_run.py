@@ -14,8 +14,9 @@ FAST = ["--set", "camera.width_px=480", "--workers", "1"]
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("run") / "paper-10cm"
-    assert main(["run", "paper-10cm", "--out", str(out), "--frames", "16", *FAST]) == 0
+    # The geometric LED: 480 columns hold its whole disk (a halo would be cropped).
+    out = tmp_path_factory.mktemp("run") / "paper-geometric"
+    assert main(["run", "paper-geometric", "--out", str(out), "--frames", "16", *FAST]) == 0
     return out
 
 

@@ -98,7 +98,7 @@ def test_overrides_parse_yaml_values():
 
 def test_effects_can_be_listed_added_and_removed():
     scene = load_scene("paper-default", ["effects.read_noise=false", "effects.dsnu=null", "effects.shot_noise.method=gaussian"])
-    assert scene.effects.enabled() == ("ambient", "shot_noise", "dsnu")
+    assert scene.effects.enabled() == ("ambient", "shot_noise", "dsnu", "glare")
     assert scene.effects.shot_noise.method == "gaussian"
     assert scene_from_dict({"effects": ["prnu", "tone_curve"]}).effects.enabled() == ("prnu", "tone_curve")
     assert scene_from_dict({}).effects.enabled() == ()

@@ -123,8 +123,12 @@ def client():
             yield active
 
 
+# The geometric LED, whose rows (and M) follow the thin lens: known answers.
+GEOMETRIC = "paper-geometric"
+
+
 def test_analytic_stage_3x2_equals_the_analytic_tools(tmp_path, client):
-    spec = spec_from_arguments("paper-default", grid=["link.distance_cm=5,10,15", "channel.p_e=0.001,0.01"])
+    spec = spec_from_arguments(GEOMETRIC, grid=["link.distance_cm=5,10,15", "channel.p_e=0.001,0.01"])
     result = run_sweep(spec, tmp_path / "out", client=client)
     rows = _table(tmp_path / "out")
     assert len(rows) == 6 and result.failed == 0 and all(r["status"] == "ok" for r in rows)
@@ -147,7 +151,7 @@ def test_analytic_stage_3x2_equals_the_analytic_tools(tmp_path, client):
 
 
 def test_simulate_stage_3x2_goodput_falls_with_distance(tmp_path, client):
-    spec = spec_from_arguments("paper-default", grid=["link.distance_cm=5,7.5,10", "link.repeats=1,2"],
+    spec = spec_from_arguments(GEOMETRIC, grid=["link.distance_cm=5,7.5,10", "link.repeats=1,2"],
                                stage="simulate", options={"runs": 200})
     run_sweep(spec, tmp_path / "out", client=client)
     rows = _table(tmp_path / "out")
@@ -161,13 +165,13 @@ def test_simulate_stage_3x2_goodput_falls_with_distance(tmp_path, client):
     from rollsim.channel.scene_channel import simulate_scene
     from rollsim.scene import load_scene
 
-    scene = load_scene("paper-default", ["link.distance_cm=7.5", "link.repeats=2", f"seed={rows[3]['seed']}"])
+    scene = load_scene(GEOMETRIC, ["link.distance_cm=7.5", "link.repeats=2", f"seed={rows[3]['seed']}"])
     expected = simulate_scene(scene, "mmbp", runs=200, workers=1).summary()["metrics"]["goodput_bps"]["mean"]
     assert rows[3]["goodput_bps_mean"] == expected
 
 
 def test_run_stage_3x2_decodes_and_fits_the_physics(tmp_path, client):
-    spec = spec_from_arguments("paper-default", grid=["link.distance_cm=5,10,20", "link.clock_hz=8000,6000"],
+    spec = spec_from_arguments(GEOMETRIC, grid=["link.distance_cm=5,10,20", "link.clock_hz=8000,6000"],
                                stage="run", overrides=["camera.width_px=480"], options={"frames": 24})
     run_sweep(spec, tmp_path / "out", client=client)
     rows = _table(tmp_path / "out")
@@ -334,7 +338,7 @@ def test_python_api_returns_a_dataframe_or_the_directory(tmp_path, client):
 
     import rollsim
 
-    table = rollsim.sweep("paper-default", grid={"link.distance_cm": [5, 10]}, out=tmp_path / "api", client=client)
+    table = rollsim.sweep(GEOMETRIC, grid={"link.distance_cm": [5, 10]}, out=tmp_path / "api", client=client)
     if importlib.util.find_spec("pandas") is None:
         assert table == tmp_path / "api"
         assert [row["M"] for row in _table(table)] == [3, 1]

@@ -330,6 +330,25 @@ def _check_channel(channel) -> None:
         raise ValueError(f"channel must be one of the rollsim.channel.channels models, got {channel!r}")
 
 
+def check_broadcast_memory(runs: int, n_packets: int, workers: int, max_emissions: int = DEFAULT_MAX_EMISSIONS,
+                           record_loss_streaks: bool = False) -> None:
+    """Refuse a broadcast simulation whose arrays exceed the memory budget.
+
+    Per run: its row of counts and the result's metric arrays (and, if
+    recorded, at most one loss streak per two emissions); per worker: a
+    run's received-packet flags and one block of outcomes. Callers may check
+    before any other work (e.g. before a scene's channel is built).
+
+    Raises
+    ------
+    rollsim.budget.BudgetError
+        Naming ``runs``.
+    """
+    streak_bytes = runs * (max_emissions // 2) * _BYTES_PER_STREAK if record_loss_streaks else 0
+    check_memory(f"runs = {runs} of {n_packets} packets",
+                 runs * _BYTES_PER_RUN + streak_bytes + min(workers, runs) * (n_packets + 64 * _MAX_BLOCK))
+
+
 def simulate_broadcast(
     channel,
     schedule: Schedule,
@@ -399,12 +418,7 @@ def simulate_broadcast(
         raise ValueError(f"progress must be callable, got {progress!r}")
 
     record_loss_streaks = bool(record_loss_streaks)
-    # Per run: its row of counts and the result's metric arrays (and, if
-    # recorded, at most one loss streak per two emissions); per worker: a
-    # run's received-packet flags and one block of outcomes.
-    streak_bytes = runs * (max_emissions // 2) * _BYTES_PER_STREAK if record_loss_streaks else 0
-    check_memory(f"runs = {runs} of {schedule.n_packets} packets",
-                 runs * _BYTES_PER_RUN + streak_bytes + min(workers, runs) * (schedule.n_packets + 64 * _MAX_BLOCK))
+    check_broadcast_memory(runs, schedule.n_packets, workers, max_emissions, record_loss_streaks)
     bounds = [(lo, min(lo + chunk, runs)) for lo in range(0, runs, chunk)]
     chunks: list = [None] * len(bounds)
     args = (channel, schedule, max_emissions, seed)

@@ -15,8 +15,8 @@ from rollsim.channel.scene_channel import (
     capture_window_from_scene,
     mmbp_slots_from_scene,
     sdu_duration_from_scene,
+    scene_led_rows,
 )
-from rollsim.optics.geometry import led_rows
 from rollsim.protocol.packets import n_packets
 
 __all__ = ["link_prediction", "mmbp_figures"]
@@ -64,8 +64,10 @@ def link_prediction(scene) -> dict:
     Returns
     -------
     dict
-        ``led_rows`` (first and last row the LED's geometric image touches,
-        or None), ``roi_ratio`` (those rows over the frame's), ``roi_ratio_eq10``
+        ``led_rows`` (first and last row of the LED, or None: those its
+        geometric image touches or, with ``glare``, those whose stripes clear
+        the noise; :func:`rollsim.channel.scene_channel.scene_led_rows`),
+        ``led_rows_from`` (which of the two), ``roi_ratio`` (those rows over the frame's), ``roi_ratio_eq10``
         (the paper's Eq. 10 with the LED's size), ``M``, ``N``, ``mn_from``
         ("physics", or "scene" where ``channel.M`` and ``channel.N`` are given),
         ``sdu_duration_s``, ``capture_window_s``, ``n_packets``, ``repeats``,
@@ -79,7 +81,7 @@ def link_prediction(scene) -> dict:
     """
     cam, link, led = scene.camera, scene.link, scene.led
     slots = mmbp_slots_from_scene(scene)
-    first, last = led_rows(scene)
+    first, last = scene_led_rows(scene)
     rows = max(0, last - first + 1)
     n, sdu_s = n_packets(link.message_bytes, link.payload_bits), sdu_duration_from_scene(scene)
     sensor_mm = cam.height_px * cam.pixel_pitch_um * 1e-3
@@ -87,6 +89,7 @@ def link_prediction(scene) -> dict:
     strategy = link.strategy
     return {
         "led_rows": [int(first), int(last)] if rows else None,
+        "led_rows_from": "geometric image" if scene.effects.glare is None else "stripes above the noise",
         "roi_ratio": rows / cam.height_px,
         "roi_ratio_eq10": analytic.roi_ratio(link.distance_cm * 10.0, led.size_mm, cam.focal_length_mm, sensor_mm),
         "M": slots.M, "N": slots.N, "mn_from": "physics" if scene.channel.M is None else "scene",

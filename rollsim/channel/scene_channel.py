@@ -38,11 +38,19 @@ The ``mmbp`` and ``timed`` channels refuse scenes that need either.
 
 from __future__ import annotations
 
+import functools
+import os
+
 from dataclasses import dataclass
 
 from rollsim.channel.analytic import MmbpSlots, mmbp_slots_from_physics
 from rollsim.channel.channels import CamcomsimChannel, MmbpChannel, TimedChannel, camcomsim_roi
-from rollsim.channel.eventsim import DEFAULT_MAX_EMISSIONS, BroadcastResult, simulate_broadcast
+from rollsim.channel.eventsim import (
+    DEFAULT_MAX_EMISSIONS,
+    BroadcastResult,
+    check_broadcast_memory,
+    simulate_broadcast,
+)
 from rollsim.optics.geometry import led_rows
 from rollsim.protocol.packets import n_packets as packets_of_message
 from rollsim.scene.loader import DISTANCE_WITHOUT_LENS, SEQUENCE_WRAP, relaxations_used
@@ -99,9 +107,36 @@ def sdu_duration_from_scene(scene) -> float:
     return phy_from_scene(scene).sdu_duration_s(scene.link.clock_hz)
 
 
+def scene_led_rows(scene) -> tuple[int, int]:
+    """First and last row of the scene's LED (``last < first`` if none).
+
+    The rows its geometric image touches
+    (:func:`rollsim.optics.geometry.led_rows`), or, with ``glare``, whose
+    halo reaches every row, the rows whose stripes clear the noise
+    (:func:`rollsim.render.readable.readable_rows`, computed once per scene).
+    """
+    if scene.effects.glare is None:
+        return led_rows(scene)
+    # Keyed on what the rows depend on: a sweep over p_e or the strategy
+    # computes them once.
+    key = scene.model_copy(update={"name": "", "description": "", "channel": type(scene.channel)(),
+                                   "link": type(scene.link)(distance_cm=scene.link.distance_cm)})
+    return _readable_rows(key.model_dump_json())
+
+
+@functools.lru_cache(maxsize=64)
+def _readable_rows(scene_json: str) -> tuple[int, int]:
+    from rollsim.render.setup import build_setup  # here: the glare's setup is the renderer's
+    from rollsim.render.stages import prepare_setup
+    from rollsim.scene.model import Scene
+
+    rows = prepare_setup(build_setup(Scene.model_validate_json(scene_json))).led_rows
+    return rows if rows else (0, -1)
+
+
 def led_row_count(scene) -> int:
-    """Number of frame rows the LED footprint touches (0 if it misses the frame)."""
-    first, last = led_rows(scene)
+    """Number of frame rows of the scene's LED (0 if none; :func:`scene_led_rows`)."""
+    first, last = scene_led_rows(scene)
     return max(0, last - first + 1)
 
 
@@ -325,6 +360,17 @@ def camcomsim_parameters(scene, result: BroadcastResult, *, save_path: str = "./
     }
 
 
+def check_runs_first(scene, runs, workers=None, max_emissions: int = DEFAULT_MAX_EMISSIONS,
+                     record_loss_streaks: bool = False) -> None:
+    """Refuse too many runs before the scene's channel is built (which may
+    render the LED's glare): a clear error, at once, even under a tight limit.
+    Invalid ``runs`` or ``workers`` are left to the simulation's own checks."""
+    if isinstance(runs, int) and runs >= 1 and (workers is None or isinstance(workers, int) and workers >= 1):
+        n = packets_of_message(scene.link.message_bytes, scene.link.payload_bits)
+        check_broadcast_memory(runs, n, min(2, os.cpu_count() or 1) if workers is None else workers,
+                               max_emissions, record_loss_streaks)
+
+
 def simulate_scene(
     scene,
     kind: str,
@@ -341,6 +387,7 @@ def simulate_scene(
     ``seed`` defaults to the scene's seed. Other parameters as in
     :func:`rollsim.channel.eventsim.simulate_broadcast`.
     """
+    check_runs_first(scene, runs, workers, max_emissions)
     setup = broadcast_from_scene(scene, kind, java_float32=java_float32)
     return simulate_broadcast(
         setup.channel,

@@ -37,6 +37,7 @@ from rollsim.optics.psf import (
 from rollsim.optics.radiometry import photon_rate_per_pixel
 from rollsim.optics.spectral import illuminant_electrons_per_lumen, led_electrons_per_lumen
 from rollsim.optics.vignetting import cos4_map, image_distance_m
+from rollsim.render.readable import readable_rows
 from rollsim.render.setup import ambient_sensor_illuminances_lx, led_rows_from_coverage, led_sensor_illuminance_lx
 from rollsim.sensor.cfa import cfa_channels
 
@@ -115,7 +116,8 @@ def emitter_light(setup):
     and then the lens's veiling glare (:func:`rollsim.optics.glare.glared_light`)
     reshape the LED's light, not its body: the background stays hidden by
     the footprint alone. The LED rows are those of the light, by the rule of
-    :func:`lens_psf`.
+    :func:`lens_psf`, or with ``glare``, whose halo reaches every row, those
+    whose stripes clear the noise (:func:`rollsim.render.readable.readable_rows`).
     """
     scene = setup.scene
     cam, effects = scene.camera, scene.effects
@@ -127,7 +129,12 @@ def emitter_light(setup):
         params = effects.glare
         core_px = glare_core_px(params.core_angle_deg, cam.focal_length_mm * 1e-3, cam.pixel_pitch_um * 1e-6)
         light = glared_light(light, setup.shape, params.fraction, core_px, params.exponent)
-    return replace(setup, led_light=light, led_rows=led_rows_from_coverage(light.row_coverage(cam.height_px)))
+    setup = replace(setup, led_light=light)
+    if effects.glare is None:
+        # The light stays within the footprint: the rule of :func:`lens_psf`.
+        return replace(setup, led_rows=led_rows_from_coverage(light.row_coverage(cam.height_px)))
+    # A halo reaches every row: the LED's rows are those whose stripes clear the noise.
+    return replace(setup, led_rows=readable_rows(setup))
 
 
 def colour_filter_array(setup):

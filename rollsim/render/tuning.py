@@ -1,18 +1,42 @@
-"""How the bundled scenes' LED size and luminous intensity were chosen.
+"""How the bundled paper scenes' LED was chosen.
 
-Two facts of the reference paper meet here:
+The testbed (paper sec. 3) is a red 5 mm LED read by a Nexus 5 at ISO 10000
+and 100 µs. Its measured ROI ratio (Fig. 11; CamComSim's ROI_exp table) is
+far larger than the LED's thin-lens image, 0.985 of the rows at 5 cm against
+0.3 for the geometric image of 5 mm, and it falls faster than that image,
+which shrinks as 1/d: the square of the measured ratio follows a/d − b
+closely from 10 to 35 cm. The paper puts the excess near the LED down to its
+light flooding the lens and the loss far away to the ambient light.
 
-* Its measured ROI (Fig. 11; CamComSim's ROI_exp table) is far larger than a
-  thin lens gives for its 4-5 mm LED: 0.98 of the frame at 5 cm, 0.72 at
-  10 cm, where a 4 mm LED images onto 0.23 and 0.11 of the rows of a Nexus 5.
-  The paper puts this down to the LED's radiance flooding the lens. rollsim's
-  ``led.size_mm`` is the *effective* emitting size, so the paper scenes use
-  the size whose thin-lens image spans the measured ROI
-  (:func:`effective_led_size_mm`).
-* At the paper's ISO 10000 one electron is 22 DN, so a pixel saturates at
-  about 44 electrons in 100 µs; a real LED of a few candela would saturate
-  everything. The scenes set the luminous intensity so that a fully ON row
-  sits at a chosen fraction of the ADC range (:func:`luminous_intensity_for_on_fraction`).
+rollsim models this with one parameter set, used unchanged at every
+distance (the paper scenes differ only in ``link.distance_cm``):
+
+* the LED's geometric image (``size_mm: 5``, the testbed's LED);
+* a halo fixed in the image plane (``effects.glare``, a Moffat profile of
+  field angle: :mod:`rollsim.optics.glare`), whose light is the LED's: its
+  irradiance falls as 1/d² while its shape stays put, so the rows where its
+  stripes clear the noise shrink as the testbed's did. A Moffat halo with
+  wings ∝ θ⁻⁴ (β = 2) read down to a fixed level gives exactly
+  ROI² = a/d − b;
+* the ambient light and the sensor's noise (``ambient``, ``shot_noise``,
+  ``read_noise``), which set where the stripes stop being readable.
+
+Fitted, not measured: the luminous intensity (0.045 cd), the halo's share of
+the light (η = 0.8), its core angle (θ₀ = 4.2°) and its exponent (β = 2). They
+were chosen on a grid (I_v 0.03-0.05 cd, η 0.8-0.95, θ₀ 3.8-5.5°, β 1.5-2.5)
+to minimise the largest difference between the decoder's stripe rows
+(:func:`decoder.stripe_row_fraction`, 10 frames per distance) and Fig. 11 at
+5-40 cm; the chosen set is within 0.035 everywhere. ``rollsim paper``
+measures it again (Fig. 11's rows). η = 0.8 is far above the few per cent of
+a clean lens's veiling glare (ISO 18844): the halo stands for all the LED's
+light the camera spreads at a few centimetres (cover glass, flare, spill),
+not for the lens alone.
+
+The older geometric choice is kept for scenes that want a uniform disk
+whose image spans a given ROI (:func:`effective_led_size_mm`), and the
+intensity that puts a fully ON row at a chosen fraction of the ADC range
+(:func:`luminous_intensity_for_on_fraction`): at the paper's ISO 10000 one
+electron is 22 DN, so a pixel saturates at about 44 electrons in 100 µs.
 """
 
 from __future__ import annotations

@@ -31,7 +31,7 @@ from rollsim.scene.loader import DISTANCE_WITHOUT_LENS, SEQUENCE_WRAP, relaxatio
 
 @pytest.fixture(scope="module")
 def paper():
-    return load_scene("paper-default")
+    return load_scene("paper-geometric")  # the geometric LED's rows
 
 
 def test_sdu_duration_and_capture_window(paper):

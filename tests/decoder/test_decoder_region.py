@@ -100,7 +100,9 @@ def test_dim_led_is_found_by_its_mean_level():
 
     from decoder.region import bright_mask
 
-    scene = load_scene("paper-default", ["led.luminous_intensity_cd=0.0016", "environment.ambient_lux=20"])
+    # The geometric footprint of a uniform 17.3 mm disk, without glare.
+    scene = load_scene("paper-default", ["led.size_mm=17.3", "effects.glare=false",
+                                         "led.luminous_intensity_cd=0.0016", "environment.ambient_lux=20"])
     pipeline = RenderPipeline(scene)
     blocks = block_means(pipeline.render(0).image, 4)
     noise = horizontal_noise(blocks.blocks, row_step=2)
@@ -110,3 +112,81 @@ def test_dim_led_is_found_by_its_mean_level():
     assert len(regions) == 1
     first, last = pipeline.setup.led_rows
     assert regions[0].rows.start <= first + 8 and regions[0].rows.stop >= last - 8
+
+
+# ------------------------------------------------- detection by modulation
+
+
+def _noise_frame(rng, sigma_dn, shape=(1080, 1920)):
+    return np.clip(rng.normal(100.0, sigma_dn, shape), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("rows_per_chip", [3.0, 6.6, 20.0])
+def test_noise_alone_is_never_modulated(rows_per_chip):
+    """Pure noise, quantised to 8 bits as a camera does, from 0.5 to 40 DN:
+    no block passes the threshold."""
+    from decoder.region import _block_quantisation, modulated_mask
+
+    rng = np.random.default_rng(7)
+    kernel_rows = 2 * int(((3 + 1) * rows_per_chip + 8) / 8) + 1
+    for sigma in (0.5, 2.0, 10.0, 40.0):
+        blocks = block_means(_noise_frame(rng, sigma), 4)
+        floor = _block_quantisation(blocks, blocks.blocks)
+        assert not modulated_mask(blocks.blocks, rows_per_chip / 4, kernel_rows, floor).any()
+
+
+def test_noise_power_is_unbiased_and_ignores_stripes():
+    from decoder.region import _noise_power
+
+    rng = np.random.default_rng(3)
+    stripes = np.repeat((np.arange(300) // 3 % 2) * 50.0, 400).reshape(300, 400)
+    noisy = stripes + rng.normal(0, 2.0, stripes.shape)
+    power = _noise_power(noisy, 9)
+    assert power.shape == noisy.shape
+    assert power.mean() == pytest.approx(4.0, rel=0.03)
+
+
+def _halo_frame(rng, amplitude_dn, rows_per_chip=6.6, shape=(1080, 1920), noise_dn=6.0):
+    """A small saturated striped core and, round it, stripes of a Moffat halo
+    whose amplitude falls from ``amplitude_dn`` at the core: a mean level far
+    too faint for Otsu to split from the background."""
+    height, width = shape
+    y, x = np.mgrid[0:height, 0:width].astype(np.float64)
+    r2 = ((y - height / 2) ** 2 + (x - width / 2) ** 2) / 200.0**2
+    halo = amplitude_dn / (1.0 + r2) ** 2
+    on = (np.arange(height) / rows_per_chip).astype(int) % 2 == 0
+    core = r2 < (20.0 / 200.0) ** 2
+    signal = np.where(on[:, None], halo + np.where(core, 400.0, 0.0), 0.0)
+    return np.clip(70.0 + signal + rng.normal(0, noise_dn, shape), 0, 255).astype(np.uint8), halo
+
+
+def test_faint_halo_stripes_are_one_region_with_the_core():
+    """Without the chip pitch only the core is found; with it, the region
+    reaches as far as the halo's stripes stand out of the noise, and stays
+    one region."""
+    rng = np.random.default_rng(5)
+    image, halo = _halo_frame(rng, amplitude_dn=12.0)
+    blocks = block_means(image, 4)
+    by_level = detect_regions(blocks, 35.0)
+    by_modulation = detect_regions(blocks, 35.0, rows_per_chip=6.6)
+    assert len(by_level) == 1 and by_level[0].rows.stop - by_level[0].rows.start < 80
+    assert len(by_modulation) == 1
+    rows = by_modulation[0].rows
+    assert rows.start < 540 < rows.stop
+    # The halo's ON level clears 1 DN (a sixth of the pixel noise) over a
+    # block row out to |dy| ≈ 200·sqrt(sqrt(12) − 1) ≈ 314 rows.
+    assert rows.stop - rows.start > 400
+    assert rows.stop - rows.start < 2 * 320 + 40
+
+
+def test_modulation_needs_stripes_not_level():
+    """The same halo without stripes (a steady glow) is no region at all."""
+    rng = np.random.default_rng(6)
+    height, width = 1080, 1920
+    y, x = np.mgrid[0:height, 0:width].astype(np.float64)
+    glow = 60.0 / (1.0 + ((y - 540) ** 2 + (x - 960) ** 2) / 300.0**2) ** 2
+    image = np.clip(70.0 + glow + rng.normal(0, 6.0, (height, width)), 0, 255).astype(np.uint8)
+    from decoder.region import _block_quantisation, modulated_mask
+
+    blocks = block_means(image, 4)
+    assert not modulated_mask(blocks.blocks, 6.6 / 4, 9, _block_quantisation(blocks, blocks.blocks)).any()

@@ -82,7 +82,7 @@ def test_one_or_two_workers_write_the_same_bytes(effect, tmp_path):
 
 
 def test_unlisted_effects_are_absent_from_the_assembled_pipeline():
-    pipeline = RenderPipeline(load_scene("paper-default", SMALL))
+    pipeline = RenderPipeline(load_scene("paper-geometric", SMALL))
     names = pipeline.stage_names
     assert not any(n.startswith(tuple(TEMPORAL)) for n in names)
     assert len(names) == len(set(names))

@@ -154,15 +154,52 @@ def test_rendered_led_signal_is_the_light():
 
 
 def test_led_rows_shrink_with_distance_under_glare():
+    """With glare the LED's rows are those whose stripes clear the noise: all
+    of them at 5 cm on paper-default, fewer at every larger distance."""
     counts = []
     for distance_cm in (5, 10, 20, 30, 40):
-        scene = make_scene(effects={"glare": {}, "led_profile": {}}, link={"distance_cm": distance_cm},
-                           led={"size_mm": 5.0, "luminous_intensity_cd": 1.0})
-        first, last = RenderPipeline(scene).setup.led_rows
+        first, last = RenderPipeline(load_scene("paper-default", [f"link.distance_cm={distance_cm}"])).setup.led_rows
         counts.append(last - first + 1)
-    assert all(a >= b for a, b in zip(counts, counts[1:])) and counts[0] > counts[-1]
+    assert counts[0] == 1080 and all(a > b for a, b in zip(counts, counts[1:])) and counts[-1] > 0
 
 
 def test_motion_with_glare_is_refused_at_load():
     with pytest.raises(SceneError, match="effects.motion: cannot be combined with led_profile or glare"):
         load_scene("effect-motion", ["effects.glare={}"])
+
+
+# ------------------------------------------------------------ readable rows
+
+
+def test_row_stripe_snr_of_uniform_rows_is_the_closed_form():
+    from rollsim.render.readable import row_stripe_snr
+
+    gap = np.full((3, 400), 2.0)
+    gap[1] = 0.0
+    gap[2, :100] = 4.0
+    snr = row_stripe_snr(gap, 9.0)
+    # sqrt(W) g / sigma: 20 * 2 / 3; a dark row has none; the matched sum adds powers.
+    assert snr[0] == pytest.approx(20 * 2 / 3, rel=1e-12)
+    assert snr[1] == 0.0
+    assert snr[2] == pytest.approx(math.sqrt(100 * 16 / 9 + 300 * 4 / 9), rel=1e-12)
+
+
+def test_readable_contrast_is_the_decoders():
+    from decoder.binarize import MIN_CONTRAST_SIGMA
+    from rollsim.render.readable import READABLE_CONTRAST_SIGMA
+
+    assert READABLE_CONTRAST_SIGMA == MIN_CONTRAST_SIGMA
+
+
+def test_readable_rows_follow_the_noise():
+    """Without noise effects only quantisation limits the halo (every row of
+    paper-default at 30 cm is readable); more ambient light (shot noise)
+    shrinks the rows; a brighter LED widens them."""
+    def rows(*overrides):
+        found = RenderPipeline(load_scene("paper-default", ["link.distance_cm=30", *overrides])).setup.led_rows
+        return 0 if found is None else found[1] - found[0] + 1
+
+    base = rows()
+    assert rows("effects.shot_noise=false", "effects.read_noise=false") == 1080
+    assert 0 < rows("environment.ambient_lux=2000") < base < rows("led.luminous_intensity_cd=0.09")
+    assert rows("led.luminous_intensity_cd=0.00001") == 0

@@ -120,10 +120,10 @@ def test_fully_visible_sdus_lie_inside_the_led_rows_and_match_the_chips():
             assert sdu["bits"] == "".join(map(str, tx.payloads[sdu["sequence"]]))
 
 
-def test_bundled_paper_scenes_are_tuned_as_documented():
-    """The paper scenes' LED size reproduces the paper's measured ROI and the
-    luminous intensity puts fully ON rows at 75% of the ADC range; a rendered
-    frame's ON stripes are neither black nor clipped."""
+def test_geometric_paper_scene_is_tuned_as_documented():
+    """paper-geometric's LED size reproduces the paper's measured ROI at 5 cm
+    and its luminous intensity puts fully ON rows at 75% of the ADC range; a
+    rendered frame's ON stripes are neither black nor clipped."""
     from rollsim.render.tuning import (
         effective_led_size_mm,
         luminous_intensity_for_on_fraction,
@@ -131,13 +131,30 @@ def test_bundled_paper_scenes_are_tuned_as_documented():
     )
     from rollsim.scene import load_scene
 
-    for name, distance in (("paper-default", 5), ("paper-10cm", 10)):
-        scene = load_scene(name)
-        assert scene.led.size_mm == pytest.approx(effective_led_size_mm(scene, paper_measured_roi(distance)), abs=0.05)
-        assert scene.led.luminous_intensity_cd == pytest.approx(luminous_intensity_for_on_fraction(scene, 0.75), rel=2e-3)
-        small = load_scene(name, ["camera.width_px=64", "effects.shot_noise=false", "effects.read_noise=false"])
-        pipeline = RenderPipeline(small)
-        image = pipeline.render(0).image
-        first, last = pipeline.setup.led_rows
-        rows = image[first + 20 : last - 20, 28:36].astype(float).mean(axis=1)
-        assert 0.6 * 255 < rows.max() < 0.9 * 255 and rows.min() < 0.2 * 255
+    scene = load_scene("paper-geometric")
+    assert scene.led.size_mm == pytest.approx(effective_led_size_mm(scene, paper_measured_roi(5)), abs=0.05)
+    assert scene.led.luminous_intensity_cd == pytest.approx(luminous_intensity_for_on_fraction(scene, 0.75), rel=2e-3)
+    small = load_scene("paper-geometric", ["camera.width_px=64", "effects.shot_noise=false", "effects.read_noise=false"])
+    pipeline = RenderPipeline(small)
+    image = pipeline.render(0).image
+    first, last = pipeline.setup.led_rows
+    rows = image[first + 20 : last - 20, 28:36].astype(float).mean(axis=1)
+    assert 0.6 * 255 < rows.max() < 0.9 * 255 and rows.min() < 0.2 * 255
+
+
+def test_paper_scenes_share_one_parameter_set():
+    """The paper's distance scenes differ from paper-default in the distance
+    only (and their name): one emitter model, no per-distance tuning."""
+    from rollsim.scene import load_scene, scene_to_dict
+
+    def without(name, *keys):
+        d = scene_to_dict(load_scene(name))
+        for key in ("name", "description", *keys):
+            d.pop(key, None)
+        return d
+
+    default = without("paper-default")
+    far = without("paper-10cm")
+    assert far["link"].pop("distance_cm") == 10 and default["link"].pop("distance_cm") == 5
+    assert far == default
+    assert load_scene("paper-default").led.size_mm == 5  # the testbed's 5 mm LED (paper sec. 3)

@@ -102,7 +102,7 @@ def test_unavailable_effect_is_a_clear_error(tmp_path, capsys, monkeypatch):
     # A registered name whose builder is missing (as before an effect lands).
     monkeypatch.delitem(stages.EFFECT_BUILDERS, "motion")
     out = tmp_path / "run"
-    assert main(["render", "paper-default", "--frames", "1", "--out", str(out), "--set", "effects.motion=null", *SMALL]) == 2
+    assert main(["render", "paper-geometric", "--frames", "1", "--out", str(out), "--set", "effects.motion=null", *SMALL]) == 2
     assert capsys.readouterr().err.splitlines() == [
         "rollsim: error: effects.motion: this effect is not available yet in this version of rollsim"
     ]

@@ -44,7 +44,8 @@ print(json.dumps({"render": render_peak, "decode": decode_peak}))
 
 ALL_EFFECTS = ["effects.blur=null", "effects.vignetting=null", "effects.prnu=null", "effects.dsnu=null",
                "effects.dark_current=null", "effects.flicker=null", "effects.blooming=null", "effects.motion=null",
-               "effects.led_rise_time=null", "effects.tone_curve=null"]
+               "effects.led_rise_time=null", "effects.tone_curve=null",
+               "effects.glare=false"]  # motion cannot be combined with glare; the glare case has it
 SIZE = ["camera.width_px=1920", "camera.height_px=1080"]
 
 

@@ -1,0 +1,114 @@
+"""Which rows show an LED's stripes above the noise: its readable rows.
+
+An LED's geometric image has sharp edges, and the rows it covers are its
+rows. Light spread by the lens's glare (:mod:`rollsim.optics.glare`) has
+none: a faint halo reaches every row of the frame, and whether a row shows
+the LED's stripes depends on how far they stand out of the noise. rollsim
+then calls a row the LED's when an ideal receiver, which combines the row's
+pixels each weighted by its own signal-to-noise ratio, sees the ON–OFF gap
+at :data:`READABLE_CONTRAST_SIGMA` noise sigmas at least: the contrast the
+reference decoder requires of a row's mean (``decoder.binarize``). Its
+stripe signal-to-noise ratio is, over the row's pixels j,
+
+    SNR² = Σ_j g_j² / v_j,
+
+with g_j the electrons a fully ON exposure adds to pixel j (up to full
+scale) and v_j the noise variance in electrons of pixel j halfway between
+OFF and ON: ambient electrons (shot noise), half the gap, the read noise's
+variance, the dark current's and the 8-bit frame's quantisation (a twelfth of
+its step squared).
+Noise effects not listed add nothing (an effect is simulated only when a
+scene calls for it; quantisation always applies).
+
+These rows are the frame's ground truth (which PHY-SDUs are fully visible)
+and give the physics' M and N; a real decoder, which averages a region's
+pixels with equal weights, reads fewer (see ``decoder.stripe_row_fraction``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Contrast (ON–OFF gap over the noise sigma of a row) a row's stripes need to
+# be read; equal to decoder.binarize.MIN_CONTRAST_SIGMA (tested).
+READABLE_CONTRAST_SIGMA = 8.0
+
+
+def row_stripe_snr(gap_e: np.ndarray, variance_e2: np.ndarray) -> np.ndarray:
+    """Stripe signal-to-noise ratio of each row for an ideal receiver.
+
+    Parameters
+    ----------
+    gap_e : ndarray, shape (H, W)
+        ON–OFF gap of each pixel, electrons (≥ 0).
+    variance_e2 : ndarray or float
+        Noise variance of each pixel, electrons² (> 0).
+
+    Returns
+    -------
+    ndarray of float64, shape (H,)
+        sqrt(Σ_j gap² / variance) per row.
+    """
+    return np.sqrt(np.sum(np.square(gap_e) / variance_e2, axis=1))
+
+
+def stripe_gap_and_variance(light: np.ndarray, covered: np.ndarray, setup) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's ON–OFF gap and noise variance, electrons.
+
+    Parameters
+    ----------
+    light : ndarray, shape (H, W)
+        The LED's light on the sensor, in fully covered pixels at the face's
+        mean luminance (``setup.led_light`` laid on the frame).
+    covered : ndarray, shape (H, W)
+        Where the LED's body hides the background (0 to 1).
+    setup : SceneSetup
+        Scalar electron rates (before colour filters and vignetting).
+
+    Returns
+    -------
+    gap_e, variance_e2 : ndarray of float64, shape (H, W)
+    """
+    scene = setup.scene
+    cam, effects = scene.camera, scene.effects
+    exposure_s = cam.exposure_s
+    off_e = np.zeros(light.shape)
+    if effects.ambient is not None:
+        off_e += (setup.background_e_per_s * (1.0 - covered) + setup.face_e_per_s * covered) * exposure_s
+    if effects.dark_current is not None:
+        off_e += cam.dark_current_e_per_s * exposure_s
+    full_scale_e = min(cam.full_well_e, (2**cam.adc_bits - 1 - cam.black_level_dn) / setup.gain_dn_per_e)
+    gap_e = np.clip(np.minimum(light * (setup.led_e_per_s * exposure_s), full_scale_e - off_e), 0.0, None)
+    # The 8-bit frame's step, in electrons: (full-scale DN / 255) / gain.
+    step_e = max(1.0, (2**cam.adc_bits - 1 - cam.black_level_dn) / 255.0) / setup.gain_dn_per_e
+    variance = np.full(light.shape, step_e**2 / 12.0)
+    if effects.shot_noise is not None:
+        variance += off_e + 0.5 * gap_e
+    if effects.read_noise is not None:
+        variance += cam.read_noise_e**2
+    return gap_e, variance
+
+
+def readable_rows(setup) -> tuple[int, int] | None:
+    """First and last row whose stripes reach :data:`READABLE_CONTRAST_SIGMA`.
+
+    Parameters
+    ----------
+    setup : SceneSetup
+        With ``led_light`` set (the LED's light over the frame) and scalar
+        electron rates.
+
+    Returns
+    -------
+    (int, int) or None
+        None if no row is readable.
+    """
+    height, width = setup.shape
+    light = np.zeros((height, width))
+    spread = setup.led_light if setup.led_light is not None else setup.footprint
+    light[spread.rows, spread.cols] = spread.coverage
+    covered = np.zeros((height, width))
+    covered[setup.footprint.rows, setup.footprint.cols] = setup.footprint.coverage
+    gap_e, variance = stripe_gap_and_variance(light, covered, setup)
+    rows = np.flatnonzero(row_stripe_snr(gap_e, variance) >= READABLE_CONTRAST_SIGMA)
+    return (int(rows[0]), int(rows[-1])) if rows.size else None
