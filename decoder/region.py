@@ -20,10 +20,11 @@ measured from horizontal pixel differences, which cancel the stripes
 Where the chip pitch is known, blocks are also found by modulation rather
 than level: the LED's stripes are an alternation down the columns at the
 chip pitch, which a smooth background (or an LED's own glow, which fades
-over hundreds of rows) does not have. Each block's stripe power (its
-deviation from the mean over two chips, squared and averaged over a few
-chips) is compared with what noise alone gives; blocks clearly above it join
-the level-found ones. The stripes of a faint halo round a bright LED, which
+over hundreds of rows) does not have. Each block's stripe power (its step
+to the next block row, squared and averaged over a few chips) is compared
+with the local power of noise alone (from the same steps' differences along
+the row, where stripes cancel); blocks clearly above it join the level-found
+ones. The stripes of a faint halo round a bright LED, which
 never clear Otsu's split of the frame, are found so, as far as they stand out
 of the noise.
 
@@ -373,6 +374,8 @@ def modulated_mask(gray: np.ndarray, chip_blocks: float, kernel_rows: int, floor
     ac = np.zeros_like(smooth)
     ac[:-1] = smooth[1:] - smooth[:-1]
     box = (2 * width + 1, window)
+    # A lower bound: the quantisation of one smoothed block (a step, the
+    # difference of two, has twice it where the rounding errors are independent).
     floor_power = floor_sigma**2 / width
     noise_power = cv2.blur(_noise_power(ac, width), box, borderType=cv2.BORDER_REFLECT)
     # Across a footprint narrower than two lags both differences straddle
