@@ -275,10 +275,10 @@ def test_cli_effects_option_alone_measures_no_effect(tmp_path, capsys):
 
 
 @pytest.mark.benchmark
-def test_full_accuracy_run_on_paper_default(tmp_path):
-    """The README's run: every knob and effect on paper-default at 1080p (a few minutes)."""
+def test_full_accuracy_run_on_paper_geometric(tmp_path):
+    """The README's run: every knob and effect on paper-geometric at 1080p (a few minutes)."""
     out = tmp_path / "accuracy"
-    assert main(["bench", "accuracy", "paper-default", "--out", str(out)]) == 0
+    assert main(["bench", "accuracy", "paper-geometric", "--out", str(out)]) == 0
     result = json.loads((out / "accuracy.json").read_text())
     assert [k["knob"] for k in result["knobs"]] == list(KNOB_NAMES)
     for knob in result["knobs"]:

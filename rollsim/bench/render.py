@@ -18,7 +18,7 @@ from rollsim.render import RenderPipeline
 from rollsim.render.writer import encode_png, render_to_dir
 from rollsim.scene import load_scene
 
-SCENE = "paper-default"
+SCENE = "paper-geometric"  # the core pipeline's speed; the glare's cost is in bench accuracy
 VARIANTS = {
     "core only (no effects)": ["effects=[]"],
     "default effects, Poisson shot noise": [],
