@@ -17,6 +17,7 @@ import math
 from dataclasses import dataclass
 
 from rollsim.errors import RollsimError
+from rollsim.render.setup import full_scale_electrons
 from rollsim.scene import scene_from_dict
 from rollsim.scene.loader import scene_to_dict
 
@@ -186,7 +187,7 @@ def flat_field_levels_e(scene, low_e: float = 2.0) -> list[float]:
     and their geometric mean.
     """
     cam = scene.camera
-    adc_e = (2**cam.adc_bits - 1 - cam.black_level_dn) / cam.gain_dn_per_e_at_iso
+    adc_e = full_scale_electrons(scene)
     dark_e = cam.dark_current_e_per_s * cam.exposure_s if scene.effects.dark_current is not None else 0.0
     high = 0.75 * min(cam.full_well_e, adc_e) - dark_e
     if high <= low_e:

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.render.setup import full_scale_electrons
+
 # Contrast (ON–OFF gap over the noise sigma of a row) a row's stripes need to
 # be read; equal to decoder.binarize.MIN_CONTRAST_SIGMA (tested).
 READABLE_CONTRAST_SIGMA = 8.0
@@ -77,10 +79,10 @@ def stripe_gap_and_variance(light: np.ndarray, covered: np.ndarray, setup) -> tu
         off_e += (setup.background_e_per_s * (1.0 - covered) + setup.face_e_per_s * covered) * exposure_s
     if effects.dark_current is not None:
         off_e += cam.dark_current_e_per_s * exposure_s
-    full_scale_e = min(cam.full_well_e, (2**cam.adc_bits - 1 - cam.black_level_dn) / setup.gain_dn_per_e)
-    gap_e = np.clip(np.minimum(light * (setup.led_e_per_s * exposure_s), full_scale_e - off_e), 0.0, None)
-    # The 8-bit frame's step, in electrons: (full-scale DN / 255) / gain.
-    step_e = max(1.0, (2**cam.adc_bits - 1 - cam.black_level_dn) / 255.0) / setup.gain_dn_per_e
+    adc_e = full_scale_electrons(scene)
+    gap_e = np.clip(np.minimum(light * (setup.led_e_per_s * exposure_s), min(cam.full_well_e, adc_e) - off_e), 0.0, None)
+    # The 8-bit frame's step, in electrons: full scale / 255, at least one DN.
+    step_e = max(1.0 / setup.gain_dn_per_e, adc_e / 255.0)
     variance = np.full(light.shape, step_e**2 / 12.0)
     if effects.shot_noise is not None:
         variance += off_e + 0.5 * gap_e
@@ -103,12 +105,7 @@ def readable_rows(setup) -> tuple[int, int] | None:
     (int, int) or None
         None if no row is readable.
     """
-    height, width = setup.shape
-    light = np.zeros((height, width))
     spread = setup.led_light if setup.led_light is not None else setup.footprint
-    light[spread.rows, spread.cols] = spread.coverage
-    covered = np.zeros((height, width))
-    covered[setup.footprint.rows, setup.footprint.cols] = setup.footprint.coverage
-    gap_e, variance = stripe_gap_and_variance(light, covered, setup)
+    gap_e, variance = stripe_gap_and_variance(spread.dense(setup.shape), setup.footprint.dense(setup.shape), setup)
     rows = np.flatnonzero(row_stripe_snr(gap_e, variance) >= READABLE_CONTRAST_SIGMA)
     return (int(rows[0]), int(rows[-1])) if rows.size else None

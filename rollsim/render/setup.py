@@ -81,6 +81,12 @@ def ambient_electron_rates(scene) -> tuple[float, float]:
     return tuple(cam.qe * photon_rate_per_pixel(e, pitch, ppl) for e in ambient_sensor_illuminances_lx(scene))
 
 
+def full_scale_electrons(scene) -> float:
+    """Electrons that fill the ADC range above the black level at the set ISO."""
+    cam = scene.camera
+    return (2**cam.adc_bits - 1 - cam.black_level_dn) / cam.gain_dn_per_e_at_iso
+
+
 @dataclass(frozen=True)
 class SceneSetup:
     """What every frame of a scene shares.

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 from rollsim.channel.channels import camcomsim_roi as paper_measured_roi  # the paper's Fig. 11 table
 from rollsim.optics import magnification
-from rollsim.render.setup import ambient_electron_rates, led_electron_rate
+from rollsim.render.setup import ambient_electron_rates, full_scale_electrons, led_electron_rate
 
 
 def effective_led_size_mm(scene, roi: float) -> float:
@@ -62,12 +62,6 @@ def on_level_electrons(scene) -> float:
     t_exp = scene.camera.exposure_s
     face = ambient_electron_rates(scene)[1] * t_exp if scene.effects.ambient is not None else 0.0
     return led_electron_rate(scene) * t_exp + face
-
-
-def full_scale_electrons(scene) -> float:
-    """Electrons that fill the ADC range above the black level at the set ISO."""
-    cam = scene.camera
-    return (2**cam.adc_bits - 1 - cam.black_level_dn) / cam.gain_dn_per_e_at_iso
 
 
 def luminous_intensity_for_on_fraction(scene, fraction: float) -> float:
