@@ -80,8 +80,8 @@ def goodput_consistency(success, mmbp: MmbpFit, scene, r_values=range(1, 7), see
     """RP(r) goodput the fitted MMBP predicts (event simulator) against the trace replayed.
 
     The paper's "within 10 % of the testbed", with the rendered trace as the
-    testbed. Rows: ``r``, ``predicted_bps``, ``replayed_bps`` (None when no
-    replay completes), ``relative_difference`` (predicted / replayed − 1).
+    testbed. Rows: ``r``, ``predicted_bps``, ``replayed_bps`` (capped replays
+    count as 0; None for an empty trace), ``relative_difference`` (predicted / replayed − 1).
     """
     from rollsim.channel.scene_channel import sdu_duration_from_scene
 
