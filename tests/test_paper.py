@@ -6,6 +6,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from rollsim.cli import main
@@ -106,3 +107,37 @@ def test_tiny_paper_run_matches_the_schema(tmp_path):
 
 def test_committed_results_match_the_schema():
     check_paper_json(json.loads((RESULTS / "paper.json").read_text()))
+
+
+def test_fig16_bound_note_states_the_papers_own_limit():
+    # 0.724 of a 30 ms readout holds 21.72/6.5 - 1 = 2.342 whole 6.5 ms
+    # PHY-SDUs per frame: 24 bits x 30 frames/s x 2.342 = 1686 bit/s.
+    from rollsim.paper.experiments import throughput_bound_note
+
+    note = throughput_bound_note(10, 1940.0)
+    assert "1686 bit/s" in note and "6.5 ms" in note and "ROI >= 0.80" in note
+    assert "1514 bit/s" in note and "7.0 ms" in note and "ROI >= 0.86" in note
+    fig16 = [c for c, key in claims() if c.figure == "Fig. 16" and c.quantity == "throughput" and c.paper == 1940.0]
+    assert len(fig16) == 1 and fig16[0].notes == (note,)
+
+
+def test_the_mmbp_cycle_note_matches_a_direct_count_of_the_cycle():
+    # The 1 kB log at 5 cm: 8 ms PHY-SDUs, C = round(33.3 / 8) = 4 slots, M = 3,
+    # N = 1. Replaying RP r = 1 over the noiseless cycle from each of its 4
+    # phases and every start packet counts the rounds directly.
+    from rollsim.paper.experiments import _log, mmbp_cycle_note
+
+    note = mmbp_cycle_note(5)
+    assert "cycle is 4 slots" in note and "422 packets are 2 mod 4" in note and "N = 1" in note
+    n, on = 422, np.array([True, True, True, False])
+    emissions = []
+    for phase in range(4):
+        received = np.zeros(n, dtype=bool)
+        e = 0
+        while not received.all():
+            received[e % n] |= on[(phase + e) % 4]
+            e += 1
+        emissions.append(e)
+    assert f"completes in {np.mean(emissions) / n:.2f} rounds" in note
+    scene = load(_log(5, 1))
+    assert scene.link.header_bits == 9

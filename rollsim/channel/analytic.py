@@ -104,6 +104,7 @@ __all__ = [
     "paper_eq6_p0_rp",
     "paper_eq7_p0_rp",
     "roi_ratio",
+    "throughput_bound_bps",
 ]
 
 _STRATEGIES = ("rp", "rs")
@@ -1062,6 +1063,46 @@ def mmbp_slots_from_physics(frame_period_s: float, capture_window_s: float, sdu_
     C = max(1, _round_half_up(T_f / T_p))
     M = min(_round_half_up(mean_whole), C)
     return MmbpSlots(M=M, N=C - M, cycle_slots=C, mean_whole_sdus_per_frame=mean_whole)
+
+
+def throughput_bound_bps(frame_period_s: float, capture_window_s: float, sdu_duration_s: float,
+                         bits_per_sdu: float) -> float:
+    """Bits per second of a receiver that decodes every whole PHY-SDU in its capture window.
+
+    ``bits_per_sdu * max(0, W / T_p - 1) / T_f``: with PHY-SDUs sent back to
+    back and a uniform phase, ``max(0, W / T_p - 1)`` whole PHY-SDUs lie in
+    a capture window ``W`` per frame on average (see
+    :func:`mmbp_slots_from_physics`). A receiver limited to ``W`` and free
+    of errors reaches this; the MMBP, rounding ``M`` up, may pass it.
+
+    Parameters
+    ----------
+    frame_period_s, capture_window_s, sdu_duration_s : float
+        ``T_f`` (> 0), ``W`` (>= 0) and ``T_p`` (> 0) in seconds, as in
+        :func:`mmbp_slots_from_physics`.
+    bits_per_sdu : float
+        Bits a received PHY-SDU counts for (``H + P`` for CamComSim's
+        throughput), >= 0.
+
+    Returns
+    -------
+    float
+        Throughput bound in bit/s.
+
+    Examples
+    --------
+    The paper's testbed at 10 cm: ROI 0.724 of a 30 ms readout at 30 fps,
+    PHY-SDUs of 6.5 ms (CamComSim's length for ``H + P = 24``):
+
+    >>> W = capture_window_s(1 / 30, 0.1, 0.724)
+    >>> round(throughput_bound_bps(1 / 30, W, 6.5e-3, 24))
+    1686
+    """
+    T_f = _as_positive(frame_period_s, "frame_period_s")
+    W = _as_positive(capture_window_s, "capture_window_s", allow_zero=True)
+    T_p = _as_positive(sdu_duration_s, "sdu_duration_s")
+    bits = _as_positive(bits_per_sdu, "bits_per_sdu", allow_zero=True)
+    return bits * max(0.0, W / T_p - 1.0) / T_f
 
 
 def capture_window_s(frame_period_s: float, ifg_ratio: float, roi: float, exposure_s: float = 0.0) -> float:

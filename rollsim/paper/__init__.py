@@ -64,6 +64,14 @@ def _mmbp_figures(overrides: tuple, runs: int) -> dict:
     return event_figures(load(overrides), "mmbp", runs)
 
 
+def throughput_bound_text(pixel: dict) -> str:
+    """The pixel's throughput beside the bound its own measured ROI sets (one report note)."""
+    bound = pixel["throughput_bound_bps"]
+    return (f"rollsim's pixel: {pixel['throughput_bps']:.0f} bit/s, {pixel['throughput_bps'] / bound:.0%} of the "
+            f"{bound:.0f} bit/s that every whole PHY-SDU in its own measured ROI ({pixel['roi_ratio']:.3f}) gives: "
+            "its throughput follows its ROI")
+
+
 def compute_comparisons(options: PaperOptions, client, progress: Optional[Callable[[str], None]] = None) -> dict:
     """Every comparison row, computed on ``client`` (a ``dask.distributed.Client``).
 
@@ -108,6 +116,8 @@ def compute_comparisons(options: PaperOptions, client, progress: Optional[Callab
     for claim, key in claims():
         pixel = figures[key].get("pixel") or {}
         notes = [pixel["p_e_text"]] if claim.quantity == "p_e" and pixel.get("p_e_text") else []
+        if claim.quantity == "throughput" and claim.paper is not None and pixel.get("throughput_bound_bps"):
+            notes.append(throughput_bound_text(pixel))
         rows.append(comparison_row(claim, layer_values(claim, figures[key]), notes))
     return {"rows": rows, "figures": figures, "seconds": time.perf_counter() - start}
 

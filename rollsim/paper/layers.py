@@ -47,23 +47,30 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
 
     Goodput is the scene's strategy replayed over the decoded outcome
     trace; throughput is ``(H + P)`` bits per correctly decoded PHY-SDU
-    over the frames' duration; the ROI ratio is the mean fraction of rows
+    over the frames' duration, and ``throughput_bound_bps`` the most that
+    whole PHY-SDUs in the measured ROI allow
+    (:func:`rollsim.channel.analytic.throughput_bound_bps`); the ROI ratio is the mean fraction of rows
     in which the decoder reads the LED's stripes
     (:func:`decoder.stripe_row_fraction`), whether or not a whole PHY-SDU
     fits in them, as the paper measured it.
     """
-    from rollsim.sweeps.stages import run_row
-
     from rollsim.calibrate import p_e_text
+    from rollsim.channel.analytic import throughput_bound_bps
+    from rollsim.channel.scene_channel import sdu_duration_from_scene
+    from rollsim.sweeps.stages import run_row
 
     scene = load([*overrides, f"frames={frames}"])
     row = run_row(scene, {})
     bits = scene.link.header_bits + scene.link.payload_bits
-    duration_s = frames * scene.camera.frame_period_s
+    camera = scene.camera
+    duration_s = frames * camera.frame_period_s
+    window_s = row["roi_ratio"] * camera.readout_s + camera.exposure_s
     return {
         "roi_ratio": row["roi_ratio"],
         "goodput_bps": row.get("goodput_replayed_bps") or 0.0,
         "throughput_bps": bits * row["ok"] / duration_s,
+        "throughput_bound_bps": throughput_bound_bps(camera.frame_period_s, window_s, sdu_duration_from_scene(scene),
+                                                     bits),
         "p_e": row.get("p_e"),
         "p_e_text": None if row.get("p_e") is None else p_e_text(
             {"p_e": row["p_e"], "p_e_ci95": [row["p_e_ci_low"], row["p_e_ci_high"]],

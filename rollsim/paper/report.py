@@ -18,6 +18,8 @@ READINGS = (
     "numbers with rollsim's camcomsim channel.",
     "The pixel ROI ratio is the mean fraction of rows in which the decoder reads the LED's stripes "
     "(decoder.stripe_row_fraction), whether or not a whole PHY-SDU fits in them.",
+    "The pixel goodput is the scene's strategy replayed over the decoded outcome trace from 500 starts, the trace "
+    "read cyclically (rollsim.calibrate.replay): a trace shorter than a few rounds reuses its own outcomes.",
 )
 
 

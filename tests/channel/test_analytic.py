@@ -556,6 +556,34 @@ def test_slots_from_physics():
         slots.M = 3  # frozen
 
 
+def _whole_sdus_by_enumeration(window_s: float, sdu_s: float, phases: int = 20000) -> float:
+    """Mean count of whole PHY-SDUs in [0, W] over an even grid of start phases."""
+    offsets = (np.arange(phases) + 0.5) / phases * sdu_s  # first start at or after 0
+    ends = offsets[:, None] + sdu_s * (np.arange(int(window_s / sdu_s) + 2)[None, :] + 1)
+    return float((ends <= window_s).sum(axis=1).mean())
+
+
+@pytest.mark.parametrize("window_ratio", [0.3, 1.0, 1.5, 3.34, 7.9])
+def test_throughput_bound_counts_whole_sdus_by_enumeration(window_ratio):
+    T_f, T_p, bits = 1 / 30, 0.0065, 24
+    W = window_ratio * T_p
+    expected = bits * _whole_sdus_by_enumeration(W, T_p) / T_f
+    assert an.throughput_bound_bps(T_f, W, T_p, bits) == pytest.approx(expected, rel=1e-3, abs=1e-6)
+
+
+def test_throughput_bound_of_the_papers_10_cm_testbed():
+    # Fig. 11's ROI at 10 cm, 30 fps, IFG 0.1: at most 1686 bit/s for 6.5 ms
+    # PHY-SDUs of 24 bits, below the 1940 bit/s Fig. 16 reports there.
+    W = an.capture_window_s(1 / 30, 0.1, 0.724)
+    assert an.throughput_bound_bps(1 / 30, W, 6.5e-3, 24) == pytest.approx(1685.9, abs=0.1)
+    assert an.throughput_bound_bps(1 / 30, 0.0, 6.5e-3, 24) == 0.0
+    for bad in ("frame_period_s", "sdu_duration_s", "bits_per_sdu"):
+        kwargs = {"frame_period_s": 1 / 30, "capture_window_s": W, "sdu_duration_s": 6.5e-3, "bits_per_sdu": 24,
+                  bad: -1.0}
+        with pytest.raises(ValueError, match=bad):
+            an.throughput_bound_bps(**kwargs)
+
+
 def test_capture_window():
     assert an.capture_window_s(1 / 30, 0.1, 0.5, 1e-4) == pytest.approx(1 / 30 * 0.9 * 0.5 + 1e-4)
     for kwargs, name in (({"ifg_ratio": 1.0}, "ifg_ratio"), ({"roi": 1.5}, "roi"), ({"exposure_s": -1}, "exposure_s")):
