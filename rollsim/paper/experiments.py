@@ -119,10 +119,10 @@ def settings() -> dict[str, Setting]:
 
 
 def throughput_bound_note(distance_cm: int, paper_bps: float) -> str:
-    """Why no receiver reaches ``paper_bps`` at ``distance_cm`` with the paper's own ROI.
+    """What reading every whole PHY-SDU in the paper's own ROI at ``distance_cm`` gives, beside ``paper_bps``.
 
-    Bounds the throughput of 24-bit PHY-SDUs by the whole PHY-SDUs that fit
-    in Fig. 11's measured ROI at 30 frames/s and IFG 0.1 (Table 1), for the
+    The throughput of 24-bit PHY-SDUs when every whole one that fits in
+    Fig. 11's measured ROI is read, at 30 frames/s and IFG 0.1 (Table 1), for the
     two PHY-SDU lengths the paper implies: CamComSim's (SYNC and ``H + P``
     only) and §6.2.2's (with the two parity bits, rollsim's layout); and
     gives the ROI each would need (:func:`rollsim.channel.analytic.throughput_bound_bps`).
