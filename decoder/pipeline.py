@@ -9,7 +9,6 @@ threshold, erasures), :mod:`decoder.timing` (clock recovery) and
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass
 from typing import Iterable, Iterator
 
@@ -17,6 +16,7 @@ import cv2
 import numpy as np
 
 from rollsim.protocol import PhyFormat, max_run_length
+from rollsim.protocol.frames import frame_index_from_name
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
@@ -398,17 +398,6 @@ def views_stripe_fraction(views: Iterable[RegionView], height: int) -> float:
             first, last = view.stripe_rows
             seen[max(first, 0) : min(last, height - 1) + 1] = True
     return float(seen.mean())
-
-
-_TRAILING_NUMBER = re.compile(r"(\d+)\D*$")
-
-
-def frame_index_from_name(path, default: int) -> int:
-    """Frame index from the last number in a file's stem (``frame_000042.png``
-    → 42), else ``default``."""
-    stem = os.path.splitext(os.path.basename(os.fspath(path)))[0]
-    match = _TRAILING_NUMBER.search(stem)
-    return int(match.group(1)) if match else default
 
 
 def decode_frames(

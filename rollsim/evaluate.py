@@ -305,7 +305,7 @@ def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], dec
         Warnings: frames the decoder could not read. Their PHY-SDUs are
         scored as missed, so the figures are not those of the whole render.
     """
-    from decoder.pipeline import frame_index_from_name
+    from rollsim.protocol.frames import frame_index_from_name
 
     truth_file, decoded_file = run_dir / "truth.jsonl", run_dir / "decoded.jsonl"
     if not truth:

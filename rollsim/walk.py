@@ -18,7 +18,7 @@ from collections import OrderedDict
 import numpy as np
 
 from rollsim.seeds import rng as named_rng
-from rollsim.sensor.gaussian import truncated_normal
+from rollsim.gaussian import truncated_normal
 
 BLOCK_FRAMES = 1024
 _CACHED_BLOCKS = 4

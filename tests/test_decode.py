@@ -350,7 +350,7 @@ def measured_roi(distance_cm: float, frames: int) -> float:
 def test_one_emitter_gives_the_papers_roi(distance_cm):
     """paper-default's one parameter set (the 5 mm LED and its glare) puts the
     decoder's stripe rows within 0.05 of the testbed's ROI (Fig. 11)."""
-    from rollsim.render.tuning import paper_measured_roi
+    from rollsim.channel.channels import camcomsim_roi as paper_measured_roi  # Fig. 11's table
 
     assert measured_roi(distance_cm, 3) == pytest.approx(paper_measured_roi(distance_cm), abs=0.05)
 
@@ -359,7 +359,7 @@ def test_one_emitter_gives_the_papers_roi(distance_cm):
 def test_one_emitter_gives_the_papers_roi_at_every_distance():
     """The issue's target: within 0.05 of Fig. 11 from 5 to 40 cm (10 frames
     each), and falling with distance."""
-    from rollsim.render.tuning import paper_measured_roi
+    from rollsim.channel.channels import camcomsim_roi as paper_measured_roi  # Fig. 11's table
 
     distances = [5, 10, 15, 20, 25, 30, 35, 40]
     rois = [measured_roi(d, 10) for d in distances]

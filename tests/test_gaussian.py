@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rollsim.sensor.gaussian import standard_normal
+from rollsim.gaussian import standard_normal
 
 
 @pytest.mark.parametrize("method", ["exact", "table"])

@@ -47,7 +47,7 @@ import numpy as np
 from rollsim.channel.validation import as_count as _as_count
 from rollsim.channel.validation import as_positive as _as_duration
 from rollsim.channel.validation import as_probability as _as_probability
-from rollsim.sensor.gaussian import truncated_normal as _truncated_normal
+from rollsim.gaussian import truncated_normal as _truncated_normal
 
 __all__ = [
     "CAMCOMSIM_ROI_TABLE",

@@ -41,8 +41,9 @@ from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.blooming import bloom
 from rollsim.sensor.cfa import demosaic, poisson_by_phase
 from rollsim.sensor.flicker import flicker_row_factor
-from rollsim.sensor.frame_jitter import FrameJitter, frame_jitter_error, frame_margin_s
-from rollsim.sensor.gaussian import standard_normal
+from rollsim.scene.frame_jitter_limits import frame_jitter_error, frame_margin_s
+from rollsim.sensor.frame_jitter import FrameJitter
+from rollsim.gaussian import standard_normal
 from rollsim.sensor.poisson import poisson
 from rollsim.transmitter.led_response import exposure_exact, exposure_sampled
 

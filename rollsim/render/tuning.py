@@ -41,7 +41,6 @@ electron is 22 DN, so a pixel saturates at about 44 electrons in 100 µs.
 
 from __future__ import annotations
 
-from rollsim.channel.channels import camcomsim_roi as paper_measured_roi  # the paper's Fig. 11 table
 from rollsim.optics import magnification
 from rollsim.render.setup import ambient_electron_rates, full_scale_electrons, led_electron_rate
 

@@ -20,10 +20,10 @@ import cv2
 
 from rollsim.outputs import staged_directory
 from rollsim.parallel import chunked, ordered_chunk_map
+from rollsim.protocol.frames import FRAME_NAME  # the name decoders read back
 from rollsim.render.pipeline import RenderPipeline, check_render_memory
 from rollsim.scene import scene_to_yaml
 
-FRAME_NAME = "frame_{:06d}.png"
 # Sensor noise makes frames nearly incompressible: Huffman-only coding after
 # the SUB filter encodes a noisy 1080p frame about 4x faster than zlib's
 # level 1 (17 ms against 64 ms here) for 1% more bytes.

@@ -34,7 +34,7 @@ class ReadNoise(_Params):
 
     ``method``: ``table`` draws from a 65,536-bin quantile table with exact
     tails (Kolmogorov distance 7.6e-6 from the normal, about 3x faster);
-    ``exact`` uses numpy's Ziggurat. See :mod:`rollsim.sensor.gaussian`.
+    ``exact`` uses numpy's Ziggurat. See :mod:`rollsim.gaussian`.
     """
 
     method: Literal["table", "exact"] = "table"

@@ -28,7 +28,7 @@ from rollsim.protocol import CRC8_MAX_DATA_BITS, min_header_bits, n_packets
 from rollsim.scene.effects import normalise_effects
 from rollsim.scene.model import Scene
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS
-from rollsim.sensor.frame_jitter import frame_jitter_error
+from rollsim.scene.frame_jitter_limits import frame_jitter_error
 
 ROW_TIMING_KEYS = ("row_time_us", "ifg_ratio")
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.transmitter.waveform import chip_position
+from rollsim.clock import chip_position
 
 
 def flicker_row_factor(t_start_s, exposure_s: float, mains_hz: float, depth: float, phase_rad: float = 0.0) -> np.ndarray:

@@ -13,9 +13,9 @@ Frames never overlap: the margin is T_f − (H·t_row + t_exp), the time
 between the end of one frame's capture (readout plus the last row's
 exposure, a row time to spare) and the next frame's start, so the truncation
 keeps t_{k+1} − t_k ≥ H·t_row + t_exp. A σ whose truncation would cut more
-than the tails beyond :data:`TRUNCATION_SIGMAS` standard deviations is
-refused (:func:`frame_jitter_error`): the law would no longer be the normal
-it claims to be.
+than the tails beyond ``TRUNCATION_SIGMAS`` standard deviations is refused
+(:mod:`rollsim.scene.frame_jitter_limits`, which the scene loader checks):
+the law would no longer be the normal it claims to be.
 
 The draws come from one per-scene stream (:mod:`rollsim.walk`), so
 ε_k depends only on the seed and k.
@@ -23,46 +23,10 @@ The draws come from one per-scene stream (:mod:`rollsim.walk`), so
 
 from __future__ import annotations
 
+from rollsim.scene.frame_jitter_limits import jitter_bound_s
 from rollsim.walk import FrameSequence
 
-TRUNCATION_SIGMAS = 4.0
 STREAM = "frame_jitter"
-
-
-def frame_margin_s(frame_period_s: float, readout_s: float, exposure_s: float) -> float:
-    """T_f − (H·t_row + t_exp): how far two frame starts may come closer, in seconds."""
-    return frame_period_s - readout_s - exposure_s
-
-
-def jitter_bound_s(margin_s: float, mode: str) -> float:
-    """Truncation of ε_k (``independent``) or of each step (``random_walk``), in seconds."""
-    return 0.5 * margin_s if mode == "independent" else margin_s
-
-
-def max_std_s(margin_s: float, mode: str) -> float:
-    """Largest σ allowed for a margin: the bound is at least :data:`TRUNCATION_SIGMAS` σ."""
-    return max(0.0, jitter_bound_s(margin_s, mode) / TRUNCATION_SIGMAS)
-
-
-def frame_jitter_error(camera, params) -> str | None:
-    """Why ``params`` cannot jitter frames of ``camera`` without overlap, or None.
-
-    Parameters
-    ----------
-    camera : rollsim.scene.model.Camera
-    params : rollsim.scene.effects.FrameJitter
-    """
-    if params.std_us == 0:
-        return None
-    margin = frame_margin_s(camera.frame_period_s, camera.readout_s, camera.exposure_s)
-    limit = max_std_s(margin, params.mode)
-    if params.std_us * 1e-6 <= limit:
-        return None
-    return (
-        f"effects.frame_jitter.std_us = {params.std_us:g}: out of range for this camera, allowed [0, {limit * 1e6:.6g}] "
-        f"(mode {params.mode}: frames must not overlap; the margin T_f - H*t_row - t_exp is {margin * 1e6:.6g} us "
-        f"and the jitter is truncated at {TRUNCATION_SIGMAS:g} std)"
-    )
 
 
 class FrameJitter:

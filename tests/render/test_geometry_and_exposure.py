@@ -124,11 +124,8 @@ def test_geometric_paper_scene_is_tuned_as_documented():
     """paper-geometric's LED size reproduces the paper's measured ROI at 5 cm
     and its luminous intensity puts fully ON rows at 75% of the ADC range; a
     rendered frame's ON stripes are neither black nor clipped."""
-    from rollsim.render.tuning import (
-        effective_led_size_mm,
-        luminous_intensity_for_on_fraction,
-        paper_measured_roi,
-    )
+    from rollsim.channel.channels import camcomsim_roi as paper_measured_roi  # Fig. 11's table
+    from rollsim.render.tuning import effective_led_size_mm, luminous_intensity_for_on_fraction
     from rollsim.scene import load_scene
 
     scene = load_scene("paper-geometric")
