@@ -10,6 +10,9 @@ from hypothesis import strategies as st
 from rollsim.optics import covered_rows, image_size_px, magnification
 from rollsim.optics.footprint import footprint
 from rollsim.optics.radiometry import (
+    lambertian_luminance_cd_m2,
+    led_luminance_cd_m2,
+    photon_rate_per_pixel,
     photons_per_lumen_illuminant,
     photons_per_lumen_monochromatic,
     sensor_illuminance_lx,
@@ -106,3 +109,25 @@ def test_ambient_surfaces_of_equal_luminance_give_equal_irradiance(distance_cm):
     luminance = 0.5 * scene.environment.ambient_lux / math.pi
     expected = math.pi * luminance * cam.lens_transmission / (4 * cam.f_number**2 * (1 + m) ** 2)
     assert background == pytest.approx(face, rel=1e-15) and background == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize(("call", "field"), [
+    (lambda: sensor_illuminance_lx(100, -2.0, 0.9), "f_number"),
+    (lambda: sensor_illuminance_lx(100, 2.0, 1.5), "transmission"),
+    (lambda: sensor_illuminance_lx(-1.0, 2.0, 0.9), "luminance_cd_m2"),
+    (lambda: sensor_illuminance_lx(100, 2.0, 0.9, magnification=float("nan")), "magnification"),
+    (lambda: lambertian_luminance_cd_m2(650, 1.2), "reflectance"),
+    (lambda: lambertian_luminance_cd_m2(np.array([1.0, -1.0]), 0.5), "illuminance_lx"),
+    (lambda: photon_rate_per_pixel(10.0, 0.0, 4e15), "pixel_pitch_m"),
+    (lambda: photon_rate_per_pixel(10.0, 1e-6, np.array([1.0, np.inf, 2.0])), "photons_per_lumen"),
+    (lambda: led_luminance_cd_m2(-0.1, 1e-5), "luminous_intensity_cd"),
+])
+def test_radiometry_refuses_impossible_arguments_naming_them(call, field):
+    with pytest.raises(ValueError, match=f"^{field} must be"):
+        call()
+
+
+def test_radiometry_accepts_arrays_where_light_varies():
+    lux = np.array([0.0, 10.0, 100.0])
+    assert np.allclose(lambertian_luminance_cd_m2(lux, 0.5), 0.5 * lux / math.pi)
+    assert np.allclose(photon_rate_per_pixel(lux, 1e-6, 4e15), lux * 1e-12 * 4e15)

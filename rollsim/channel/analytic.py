@@ -82,10 +82,10 @@ import numpy as np
 
 from rollsim.budget import check_memory
 from rollsim.channel import phase_sweep
-from rollsim.channel.validation import MAX_COUNT as _MAX_COUNT
-from rollsim.channel.validation import as_count as _as_count
-from rollsim.channel.validation import as_positive as _as_positive
-from rollsim.channel.validation import as_probability as _as_probability
+from rollsim.validation import MAX_COUNT as _MAX_COUNT
+from rollsim.validation import as_count as _as_count
+from rollsim.validation import as_positive as _as_positive
+from rollsim.validation import as_probability as _as_probability
 
 __all__ = [
     "MmbpSlots",

@@ -44,9 +44,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from rollsim.channel.validation import as_count as _as_count
-from rollsim.channel.validation import as_positive as _as_duration
-from rollsim.channel.validation import as_probability as _as_probability
+from rollsim.validation import as_count as _as_count
+from rollsim.validation import as_positive as _as_duration
+from rollsim.validation import as_probability as _as_probability
 from rollsim.gaussian import truncated_normal as _truncated_normal
 
 __all__ = [

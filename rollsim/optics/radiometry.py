@@ -24,6 +24,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from rollsim.validation import as_positive, as_probability, check_nonnegative
+
 PLANCK_J_S = 6.62607015e-34
 LIGHT_SPEED_M_S = 299792458.0
 K_M_LM_PER_W = 683.0
@@ -79,22 +81,44 @@ def photons_per_lumen_illuminant(name: str) -> float:
 
 
 def led_luminance_cd_m2(luminous_intensity_cd: float, emitting_area_m2: float) -> float:
-    """Luminance L = I_v / A of an LED with a uniform emitting face."""
-    if not emitting_area_m2 > 0:
-        raise ValueError(f"emitting_area_m2 must be > 0, got {emitting_area_m2}")
+    """Luminance L = I_v / A (cd/m²) of an LED with a uniform emitting face.
+
+    ``luminous_intensity_cd`` >= 0; ``emitting_area_m2`` > 0.
+    """
+    check_nonnegative(luminous_intensity_cd, "luminous_intensity_cd")
+    as_positive(emitting_area_m2, "emitting_area_m2")
     return luminous_intensity_cd / emitting_area_m2
 
 
 def lambertian_luminance_cd_m2(illuminance_lx: float, reflectance: float) -> float:
-    """Luminance L = ρ E / π of a Lambertian surface."""
+    """Luminance L = ρ E / π (cd/m²) of a Lambertian surface.
+
+    ``illuminance_lx`` >= 0 (a number or an array); ``reflectance`` in [0, 1].
+    """
+    check_nonnegative(illuminance_lx, "illuminance_lx")
+    reflectance = as_probability(reflectance, "reflectance")
     return reflectance * illuminance_lx / math.pi
 
 
 def sensor_illuminance_lx(luminance_cd_m2: float, f_number: float, transmission: float, magnification: float = 0.0) -> float:
-    """Camera equation: E = π L T / (4 N² (1 + m)²), on axis."""
+    """Camera equation: E = π L T / (4 N² (1 + m)²), in lux, on axis.
+
+    ``luminance_cd_m2`` >= 0 (a number or an array); ``f_number`` > 0;
+    ``transmission`` in [0, 1]; ``magnification`` >= 0.
+    """
+    check_nonnegative(luminance_cd_m2, "luminance_cd_m2")
+    f_number = as_positive(f_number, "f_number")
+    transmission = as_probability(transmission, "transmission")
+    magnification = as_positive(magnification, "magnification", allow_zero=True)
     return math.pi * luminance_cd_m2 * transmission / (4.0 * f_number**2 * (1.0 + magnification) ** 2)
 
 
 def photon_rate_per_pixel(illuminance_lx: float, pixel_pitch_m: float, photons_per_lumen: float) -> float:
-    """Photons per second reaching one pixel of pitch ``pixel_pitch_m``."""
+    """Photons per second reaching one pixel of pitch ``pixel_pitch_m`` (m, > 0).
+
+    ``illuminance_lx`` and ``photons_per_lumen`` >= 0, numbers or arrays.
+    """
+    check_nonnegative(illuminance_lx, "illuminance_lx")
+    pixel_pitch_m = as_positive(pixel_pitch_m, "pixel_pitch_m")
+    check_nonnegative(photons_per_lumen, "photons_per_lumen")
     return illuminance_lx * pixel_pitch_m**2 * photons_per_lumen

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from rollsim.clock import chip_position
+from rollsim.validation import as_finite, as_positive, as_probability
 
 
 def flicker_row_factor(t_start_s, exposure_s: float, mains_hz: float, depth: float, phase_rad: float = 0.0) -> np.ndarray:
@@ -44,6 +45,10 @@ def flicker_row_factor(t_start_s, exposure_s: float, mains_hz: float, depth: flo
     ndarray of float64
         (1/t_exp)·∫ (1 + m·cos(2π·2f·t + φ)) dt over each window, in [1 − m, 1 + m].
     """
+    exposure_s = as_positive(exposure_s, "exposure_s", allow_zero=True)
+    mains_hz = as_positive(mains_hz, "mains_hz")
+    depth = as_probability(depth, "depth")
+    phase_rad = as_finite(phase_rad, "phase_rad")
     flicker_hz = 2.0 * mains_hz
     # Flicker cycles elapsed at the window's middle, reduced to [0, 1) exactly
     # (double-float product, as for the chip position): t may be hours.

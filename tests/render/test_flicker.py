@@ -78,3 +78,16 @@ def test_depth_zero_is_the_static_render_exactly():
     for k in (0, 1):
         a, b = static.render(k), flat.render(k)
         assert np.array_equal(a.image, b.image) and a.truth == b.truth
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"depth": 3.0}, "depth"),
+    ({"depth": -0.1}, "depth"),
+    ({"mains_hz": 0.0}, "mains_hz"),
+    ({"exposure_s": -1e-4}, "exposure_s"),
+    ({"phase_rad": float("inf")}, "phase_rad"),
+])
+def test_flicker_refuses_impossible_arguments_naming_them(kwargs, field):
+    args = {"t_start_s": np.zeros(3), "exposure_s": 1e-4, "mains_hz": 50.0, "depth": 0.3, **kwargs}
+    with pytest.raises(ValueError, match=f"^{field} must be"):
+        flicker_row_factor(**args)

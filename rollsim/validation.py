@@ -1,4 +1,8 @@
-"""Validation of the channel layer's numeric inputs, with errors naming the parameter."""
+"""Validation of numeric inputs, with one-line errors naming the parameter.
+
+Neutral (it imports nothing from rollsim): the channel analysis, the optics
+and the sensor models all check their public arguments with it.
+"""
 
 from __future__ import annotations
 
@@ -30,12 +34,16 @@ def as_count(value, name: str, minimum: int = 0) -> int:
     return value
 
 
+def _as_float(value, name: str, expected: str) -> float:
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be {expected}, got {value!r}") from None
+
+
 def as_probability(value, name: str) -> float:
     """``value`` as a float in [0, 1] (NaN rejected)."""
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}") from None
+    value = _as_float(value, name, "a probability in [0, 1]")
     if not 0.0 <= value <= 1.0:  # also rejects NaN
         raise ValueError(f"{name} must be a probability in [0, 1], got {value!r}")
     return value
@@ -43,12 +51,26 @@ def as_probability(value, name: str) -> float:
 
 def as_positive(value, name: str, allow_zero: bool = False) -> float:
     """``value`` as a finite float > 0 (or >= 0 with ``allow_zero``)."""
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a finite number, got {value!r}") from None
+    value = _as_float(value, name, "a finite number")
     ok = value >= 0.0 if allow_zero else value > 0.0
     if not (ok and math.isfinite(value)):
         bound = ">= 0" if allow_zero else "> 0"
         raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
+    return value
+
+
+def as_finite(value, name: str) -> float:
+    """``value`` as a finite float."""
+    value = _as_float(value, name, "a finite number")
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return value
+
+
+def check_nonnegative(value, name: str):
+    """``value`` (a number or an array) unchanged if every element is finite and >= 0."""
+    array = np.asarray(value, dtype=np.float64)
+    if not np.all(np.isfinite(array) & (array >= 0.0)):
+        shown = repr(value) if array.size <= 4 else f"an array with {int(np.sum(~(np.isfinite(array) & (array >= 0))))} bad values"
+        raise ValueError(f"{name} must be finite and >= 0, got {shown}")
     return value
