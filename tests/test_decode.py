@@ -105,7 +105,9 @@ def test_folder_of_pngs_without_a_scene(rendered, tmp_path, capsys):
     assert main(["decode", str(folder), "--quiet", "--force", "--clock-hz", "8000"]) == 0
     estimated = read_jsonl(folder / "decoded.jsonl")
     assert json.loads((folder / "decode.json").read_text())["row_time_s"] is None
-    ok = lambda records: {(r["frame"], r["sequence"], r["bits"]) for r in records if r["check_ok"]}
+    def ok(records):
+        return {(r["frame"], r["sequence"], r["bits"]) for r in records if r["check_ok"]}
+
     assert len(ok(given)) >= 20 and ok(estimated) == ok(given)
 
 

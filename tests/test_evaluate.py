@@ -1,6 +1,5 @@
 """Evaluation against ground truth, on rendered truth and hand-made decodes."""
 
-import numpy as np
 import pytest
 
 from rollsim.evaluate import OUTCOMES, evaluate, format_summary, match_decodes, outcomes_csv, _truth_table

@@ -43,7 +43,7 @@ def test_failure_inside_the_block_leaves_the_target_as_it_was(tmp_path):
     with pytest.raises(ZeroDivisionError):
         with outputs.staged_directory(tmp_path / "out", force=True) as staging:
             _write_result(staging, "second")
-            1 / 0
+            raise ZeroDivisionError("a failure inside the block")
     assert _listing(tmp_path) == before
 
 

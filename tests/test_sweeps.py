@@ -5,13 +5,10 @@ Clusters are real: local Dask clusters started by rollsim, and an external
 """
 
 import json
-import math
 import re
-import shutil
 import signal
 import subprocess
 import sys
-import time
 
 import pyarrow.parquet as pq
 import pytest

@@ -24,7 +24,6 @@ import os
 import resource
 import time
 import tracemalloc
-from pathlib import Path
 
 from rollsim.channel.channels import CamcomsimChannel
 from rollsim.channel.eventsim import simulate_broadcast

@@ -8,7 +8,6 @@ parallel. The table it prints (``--markdown``) is the README's stress table.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 from rollsim.tables import format_table, markdown_table
 from rollsim.bench.common import machine

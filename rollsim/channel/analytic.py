@@ -82,7 +82,6 @@ import numpy as np
 
 from rollsim.budget import check_memory
 from rollsim.channel import phase_sweep
-from rollsim.validation import MAX_COUNT as _MAX_COUNT
 from rollsim.validation import as_count as _as_count
 from rollsim.validation import as_positive as _as_positive
 from rollsim.validation import as_probability as _as_probability
@@ -994,10 +993,10 @@ def roi_ratio(distance_mm: float, led_size_mm: float, focal_length_mm: float, se
     values you mean; this function does not correct either choice.
     """
     d = _as_positive(distance_mm, "distance_mm")
-    l = _as_positive(led_size_mm, "led_size_mm")
+    size = _as_positive(led_size_mm, "led_size_mm")
     fc = _as_positive(focal_length_mm, "focal_length_mm")
     ss = _as_positive(sensor_size_mm, "sensor_size_mm")
-    return min(1.0, l * fc / (d * ss))
+    return min(1.0, size * fc / (d * ss))
 
 
 @dataclass(frozen=True)

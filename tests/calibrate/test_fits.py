@@ -12,7 +12,6 @@ from rollsim.calibrate import (
     Trace,
     calibrate,
     clopper_pearson,
-    fit_ge,
     fit_mmbp_cycle,
     ge_method_of_moments,
     p_e_text,

@@ -318,7 +318,7 @@ def test_camcomsim_format_fields():
     assert row["nbInterFgError"] == result.gap_losses[0]
     assert row["isGenerationRx"] is bool(result.completed[0])
     assert row["simuParams"] == params
-    for i, row in enumerate(rows):
+    for row in rows:
         # One round is 20 emissions (r = 1): the rounds begun cover the emissions.
         assert row["nbTxGeneration"] == math.ceil(row["nbTxPhysdu"] / 20)
         # A completed run ends in a reception, so every loss belongs to a streak.

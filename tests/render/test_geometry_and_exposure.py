@@ -5,9 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from rollsim.optics import led_image_size_px, magnification
+from rollsim.optics import led_image_size_px
 from rollsim.render import RenderPipeline
-from rollsim.render.setup import MIN_ROW_COVERAGE_PX
 from rollsim.transmitter import Waveform
 
 from conftest import SingleChip, make_scene

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from rollsim.cli import main
-from rollsim.errors import RollsimError, SceneError
+from rollsim.errors import SceneError
 from rollsim.render import RenderPipeline, render_frames
 
 from conftest import make_scene
