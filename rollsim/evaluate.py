@@ -156,8 +156,14 @@ def evaluate(truth: list[dict], decoded: list[dict], transmitter) -> Evaluation:
 
     first_tx = int(rows["tx"].min())
     all_tx = np.arange(first_tx, int(rows["tx"].max()) + 1)
-    n = all_tx.size
-    # Emissions fully visible in some frame are missed unless a decode says more.
+    outcome, frame, fully = _visibility(rows, first_tx, all_tx.size)
+    decodes = _apply_decodes(rows, decoded, matched, first_tx, outcome, frame)
+    outcomes = _outcome_records(transmitter, all_tx, outcome, frame, fully, decodes)
+    return Evaluation(outcomes, false_decodes, summarise(outcomes, false_decodes, len(truth)))
+
+
+def _visibility(rows: dict, first_tx: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per emission: ``missed`` where some frame saw it whole (else ``not_visible``), that frame, and whether."""
     outcome = np.full(n, OUTCOMES.index("not_visible"), dtype=np.int64)
     frame = np.full(n, -1, dtype=np.int64)
     fully = np.zeros(n, dtype=bool)
@@ -167,24 +173,34 @@ def evaluate(truth: list[dict], decoded: list[dict], transmitter) -> Evaluation:
     fully[tx_visible - first_tx] = True
     frame[tx_visible - first_tx] = rows["frame"][visible[first_seen]]
     outcome[fully] = OUTCOMES.index("missed")
+    return outcome, frame, fully
 
+
+def _apply_decodes(rows: dict, decoded: list[dict], matched: np.ndarray, first_tx: int, outcome: np.ndarray,
+                   frame: np.ndarray) -> np.ndarray:
+    """Set each decoded emission's best verdict and its frame in place; return the decodes per emission."""
     hits = np.flatnonzero(matched >= 0)
-    decodes = np.bincount(rows["tx"][matched[hits]] - first_tx, minlength=n)
+    decode_tx = rows["tx"][matched[hits]] - first_tx
+    decodes = np.bincount(decode_tx, minlength=outcome.size)
     verdicts = np.array(
         [OUTCOMES.index(_decode_verdict(decoded[i], int(rows["sequence"][matched[i]]), rows["bits"][matched[i]])) for i in hits],
         dtype=np.int64,
     )
     # Best verdict per emission (lowest OUTCOMES index), then its earliest frame.
-    decode_tx = rows["tx"][matched[hits]] - first_tx
     decode_frame = rows["frame"][matched[hits]]
     order = np.lexsort((decode_frame, verdicts, decode_tx))
     tx_decoded, best = np.unique(decode_tx[order], return_index=True)
     outcome[tx_decoded] = verdicts[order][best]
     frame[tx_decoded] = decode_frame[order][best]
+    return decodes
 
+
+def _outcome_records(transmitter, all_tx: np.ndarray, outcome: np.ndarray, frame: np.ndarray, fully: np.ndarray,
+                     decodes: np.ndarray) -> list[dict]:
+    """One outcome record per emission (the rows of ``outcomes.csv``)."""
     starts = transmitter.emission_start_s(all_tx)
     sequence = transmitter.schedule.sequence_numbers(all_tx)
-    outcomes = [
+    return [
         {
             "tx": int(all_tx[i]),
             "sequence": int(sequence[i]),
@@ -196,9 +212,8 @@ def evaluate(truth: list[dict], decoded: list[dict], transmitter) -> Evaluation:
             "start_s": float(starts[i]),
             "end_s": float(starts[i] + transmitter.sdu_duration_s),
         }
-        for i in range(n)
+        for i in range(all_tx.size)
     ]
-    return Evaluation(outcomes, false_decodes, summarise(outcomes, false_decodes, len(truth)))
 
 
 def summarise(outcomes: list[dict], false_decodes: list, n_frames: int) -> dict:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -50,7 +50,6 @@ class FrameState:
     footprint: object | None = None
     led_rows: tuple | None = None
     ambient_row_factor: np.ndarray | None = None
-    extras: dict = field(default_factory=dict)
 
     @property
     def led_footprint(self):

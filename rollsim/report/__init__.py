@@ -125,16 +125,26 @@ def write_report(run_dir: Path, scene, evaluation, calibration: dict | None, tim
         Seconds per stage, in order.
     calibration_error : str, optional
     """
-    from decoder import inspect_frame, read_frame
-
-    from rollsim.decode import frame_files, settings_from_scene
     from rollsim.evaluate import read_jsonl
 
     run_dir = Path(run_dir)
-    plots = run_dir / PLOTS_DIR
-    plots.mkdir(exist_ok=True)
     truth = read_jsonl(run_dir / "truth.jsonl")
     decoded = read_jsonl(run_dir / "decoded.jsonl")
+    figures = _draw_plots(run_dir, scene, evaluation, calibration, truth, decoded)
+    lines = _report_lines(scene, evaluation, calibration, timings, calibration_error, len(truth), figures)
+    report = run_dir / "report.md"
+    report.write_text("\n".join(lines), encoding="utf-8")
+    return report
+
+
+def _draw_plots(run_dir: Path, scene, evaluation, calibration: dict | None, truth: list, decoded: list) -> list:
+    """Draw the report's plots under ``run_dir/plots``; ``(title, path)`` pairs in order."""
+    from decoder import inspect_frame, read_frame
+
+    from rollsim.decode import frame_files, settings_from_scene
+
+    plots = run_dir / PLOTS_DIR
+    plots.mkdir(exist_ok=True)
     frame = sample_frame_index(decoded, len(truth))
     image = read_frame(frame_files(run_dir)[frame])
     settings = settings_from_scene(scene)
@@ -151,7 +161,12 @@ def write_report(run_dir: Path, scene, evaluation, calibration: dict | None, tim
         ]
         if calibration.get("goodput_rp"):
             figures.append(("RP goodput: predicted against replayed", plot_goodput(calibration, plots / "goodput_rp.png")))
-    n_frames = len(truth)
+    return figures
+
+
+def _report_lines(scene, evaluation, calibration: dict | None, timings: dict, calibration_error: str | None,
+                  n_frames: int, figures: list) -> list[str]:
+    """The lines of ``report.md``: the scene, time per stage, evaluation, calibration and the plots."""
     lines = [f"# rollsim run: {scene.name}", ""]
     if scene.description:
         lines += [scene.description, ""]
@@ -165,6 +180,4 @@ def write_report(run_dir: Path, scene, evaluation, calibration: dict | None, tim
     lines += ["## Plots", ""]
     for title, path in figures:
         lines += [f"### {title}", "", f"![{title}]({PLOTS_DIR}/{path.name})", ""]
-    report = run_dir / "report.md"
-    report.write_text("\n".join(lines), encoding="utf-8")
-    return report
+    return lines
