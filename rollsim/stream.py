@@ -3,9 +3,10 @@
 :class:`DecodedRun` renders a pipeline's frames one at a time, decodes each
 and keeps only the truth records and decoded records (constant memory in the
 images); :meth:`DecodedRun.evaluation` then gives every emitted PHY-SDU its
-outcome. The ``run`` stage of a sweep runs each cell through it; ``rollsim
-bench stress`` one scene; ``rollsim bench accuracy`` several fidelity
-settings side by side, a frame at a time.
+outcome. :func:`scene_outcomes` is the whole loop for a scene, with its
+timings. The ``run`` stage of a sweep runs each cell through it; ``rollsim
+bench stress`` and the decoder's tests, one scene each; ``rollsim bench
+accuracy`` several fidelity settings side by side, a frame at a time.
 """
 
 from __future__ import annotations
@@ -101,3 +102,23 @@ def fitted_mmbp(evaluation, truth: list[dict], scene) -> dict | None:
         return fit_mmbp(trace).as_dict()
     except ValueError:
         return None
+
+
+def scene_outcomes(scene, n_frames: int) -> dict:
+    """Render, decode and evaluate ``n_frames`` of a scene in memory.
+
+    Returns
+    -------
+    dict
+        The evaluation summary (:func:`rollsim.evaluate.summarise`) plus
+        ``render_ms_per_frame`` and ``decode_ms_per_frame`` (one core).
+    """
+    from rollsim.render import RenderPipeline
+
+    run = DecodedRun(RenderPipeline(scene))
+    for index in range(n_frames):
+        run.step(index)
+    summary = run.evaluation().summary
+    summary["render_ms_per_frame"] = 1e3 * sum(run.render_s) / max(1, n_frames)
+    summary["decode_ms_per_frame"] = 1e3 * sum(run.decode_s) / max(1, n_frames)
+    return summary

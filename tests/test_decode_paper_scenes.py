@@ -21,7 +21,7 @@ Two kinds of scene:
 
 import pytest
 
-from rollsim.bench.stress import scene_outcomes
+from rollsim.stream import scene_outcomes
 from rollsim.scene import load_scene
 
 FLOORS = {"paper-geometric": 0.995, "paper-default": 0.88, "paper-10cm": 0.65}

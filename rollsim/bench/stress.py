@@ -1,7 +1,7 @@
 """``rollsim bench stress``: the decoder's outcome rates on the stress scenes.
 
 Each scene is rendered in memory, decoded and evaluated against its truth
-(:func:`scene_outcomes`), frame by frame in constant memory; scenes run in
+(:func:`rollsim.stream.scene_outcomes`), frame by frame in constant memory; scenes run in
 parallel. The table it prints (``--markdown``) is the README's stress table.
 """
 
@@ -11,7 +11,7 @@ import json
 
 from rollsim.tables import format_table, markdown_table
 from rollsim.bench.common import machine
-from rollsim.stream import DecodedRun
+from rollsim.stream import scene_outcomes
 from rollsim.parallel import process_pool
 from rollsim.scene import bundled_scene_paths, load_scene, read_yaml
 
@@ -23,26 +23,6 @@ DEFAULT_PREFIXES = ("paper-", "stress-", "effect-")
 def default_scenes() -> list[str]:
     """Names of the bundled paper, stress and effect scenes."""
     return [p.stem for p in bundled_scene_paths() if p.stem.startswith(DEFAULT_PREFIXES)]
-
-
-def scene_outcomes(scene, n_frames: int) -> dict:
-    """Render, decode and evaluate ``n_frames`` of a scene in memory.
-
-    Returns
-    -------
-    dict
-        The evaluation summary (:func:`rollsim.evaluate.summarise`) plus
-        ``render_ms_per_frame`` and ``decode_ms_per_frame`` (one core).
-    """
-    from rollsim.render import RenderPipeline
-
-    run = DecodedRun(RenderPipeline(scene))
-    for index in range(n_frames):
-        run.step(index)
-    summary = run.evaluation().summary
-    summary["render_ms_per_frame"] = 1e3 * sum(run.render_s) / max(1, n_frames)
-    summary["decode_ms_per_frame"] = 1e3 * sum(run.decode_s) / max(1, n_frames)
-    return summary
 
 
 def _run_one(name: str, n_frames: int) -> tuple[str, str, dict]:
