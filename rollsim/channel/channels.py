@@ -38,9 +38,11 @@ given it and the sequence of block sizes, the codes are fixed. (For
 
 from __future__ import annotations
 
+import abc
 import math
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import ClassVar, Protocol
 
 import numpy as np
 
@@ -56,6 +58,8 @@ __all__ = [
     "GAP_LOSS",
     "RECEIVED",
     "CamcomsimChannel",
+    "ChannelModel",
+    "ChannelRun",
     "MmbpChannel",
     "TimedChannel",
     "camcomsim_frame_slots",
@@ -121,8 +125,44 @@ def _outcomes(in_window: np.ndarray, uniform: np.ndarray, p_e: float) -> np.ndar
 # ----------------------------------------------------------------------------
 # MMBP
 # ----------------------------------------------------------------------------
+class ChannelRun(Protocol):
+    """One broadcast on a channel: outcome codes of the next emissions."""
+
+    def next_block(self, count: int) -> np.ndarray:
+        """Outcome codes (:data:`RECEIVED`, :data:`GAP_LOSS`, :data:`DECODE_ERROR`) of the next ``count`` emissions."""
+
+
+class ChannelModel(abc.ABC):
+    """What the event simulator needs of a channel model; the three models below share it.
+
+    A model names its ``kind``, says how far the clock advances per emission,
+    gives its JSON-ready ``parameters`` and opens independent runs.
+    """
+
+    kind: ClassVar[str]
+    notes: ClassVar[tuple] = ()
+
+    @property
+    @abc.abstractmethod
+    def emission_duration_s(self) -> float:
+        """Clock advance per emission, seconds."""
+
+    @property
+    def emission_duration_100us(self) -> float:
+        """Clock advance per emission in CamComSim's unit (100 us)."""
+        return self.emission_duration_s / CAMCOMSIM_SLOT_S
+
+    @abc.abstractmethod
+    def parameters(self) -> dict:
+        """JSON-ready parameters of the channel, ``kind`` included."""
+
+    @abc.abstractmethod
+    def open_run(self, seed_sequence: np.random.SeedSequence) -> ChannelRun:
+        """Start one broadcast, its randomness drawn from ``seed_sequence``."""
+
+
 @dataclass(frozen=True)
-class MmbpChannel:
+class MmbpChannel(ChannelModel):
     """The MMBP channel (paper §4.1.2): a cycle of ``M`` ON and ``N`` OFF slots.
 
     Emission ``i`` falls in slot ``(s + i) mod C``, ``C = M + N``, with the
@@ -149,7 +189,6 @@ class MmbpChannel:
     sdu_duration_s: float
 
     kind = "mmbp"
-    notes = ()
 
     def __post_init__(self):
         M = _as_count(self.M, "M")
@@ -170,11 +209,6 @@ class MmbpChannel:
     def emission_duration_s(self) -> float:
         """Clock advance per emission, seconds."""
         return self.sdu_duration_s
-
-    @property
-    def emission_duration_100us(self) -> float:
-        """Clock advance per emission in CamComSim's unit (100 us)."""
-        return self.sdu_duration_s / CAMCOMSIM_SLOT_S
 
     def parameters(self) -> dict:
         """JSON-ready parameters of the channel."""
@@ -217,7 +251,7 @@ class _MmbpRun:
 # Timed (continuous time, frame jitter)
 # ----------------------------------------------------------------------------
 @dataclass(frozen=True)
-class TimedChannel:
+class TimedChannel(ChannelModel):
     """Continuous-time channel from frame and PHY-SDU timing, with frame jitter.
 
     Emission ``i`` occupies ``[i T_p, (i + 1) T_p]``. Frame ``k`` captures
@@ -265,7 +299,6 @@ class TimedChannel:
     frame_jitter_s: float = 0.0
 
     kind = "timed"
-    notes = ()
 
     def __post_init__(self):
         object.__setattr__(self, "frame_period_s", _as_duration(self.frame_period_s, "frame_period_s"))
@@ -282,10 +315,6 @@ class TimedChannel:
     @property
     def emission_duration_s(self) -> float:
         return self.sdu_duration_s
-
-    @property
-    def emission_duration_100us(self) -> float:
-        return self.sdu_duration_s / CAMCOMSIM_SLOT_S
 
     def parameters(self) -> dict:
         return {
@@ -550,7 +579,7 @@ def camcomsim_slot_sequence(start_slot: int, increments: np.ndarray, frame_slots
 
 
 @dataclass(frozen=True)
-class CamcomsimChannel:
+class CamcomsimChannel(ChannelModel):
     """CamComSim 1.0's channel, reproduced from its source (``topology/Channel.java``).
 
     Time is cut into slots of 100 us; a frame is ``frame_slots`` slots, the
@@ -705,6 +734,7 @@ class CamcomsimChannel:
 
     @property
     def emission_duration_100us(self) -> float:
+        # Whole slots, exactly (the base's division could round).
         return float(self.sdu_slots)
 
     @property

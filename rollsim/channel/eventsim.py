@@ -65,7 +65,7 @@ import numpy as np
 from scipy.special import stdtrit
 
 from rollsim.budget import check_memory
-from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, _as_count
+from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, ChannelModel, _as_count
 from rollsim.parallel import process_pool
 from rollsim.transmitter.schedule import Schedule
 
@@ -326,7 +326,7 @@ def _check_seed(seed) -> int:
 
 
 def _check_channel(channel) -> None:
-    if not all(hasattr(channel, name) for name in ("open_run", "kind", "emission_duration_s", "parameters")):
+    if not isinstance(channel, ChannelModel):
         raise ValueError(f"channel must be one of the rollsim.channel.channels models, got {channel!r}")
 
 

@@ -533,3 +533,20 @@ def test_bench_eventsim():
     print(result)
     assert result["completed_fraction"] > 0.99
     assert result["emissions"] > 1e6
+
+
+def test_every_channel_model_shares_one_base_and_anything_else_is_refused():
+    from rollsim.channel.channels import ChannelModel
+
+    models = [MmbpChannel(3, 2, 0.01, 7e-3), TimedChannel(1 / 30, 0.02, 7e-3, 0.01),
+              CamcomsimChannel.from_parameters()]
+    for model in models:
+        assert isinstance(model, ChannelModel)
+        assert model.emission_duration_100us == pytest.approx(model.emission_duration_s / 1e-4)
+        assert model.parameters()["kind"] == model.kind
+    # A look-alike with the right attribute names is not a channel model.
+    fake = type("Fake", (), {"open_run": None, "kind": "x", "emission_duration_s": 1.0, "parameters": dict})()
+    with pytest.raises(ValueError, match="channel must be one of the rollsim.channel.channels models"):
+        simulate_broadcast(fake, Schedule("rp", 3, 1), header_bits=5, payload_bits=19, runs=1, seed=0)
+    with pytest.raises(TypeError):
+        ChannelModel()
