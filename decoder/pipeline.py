@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Iterable, Iterator
+from typing import Any, Iterable, Iterator
 
 import cv2
 import numpy as np
@@ -297,7 +297,8 @@ def decode_frame(
     FrameError
         The array is not a frame (see :func:`decoder.io.as_frame_array`).
     """
-    options = {"include_failed": include_failed, "include_truncated": include_truncated, "min_contrast": min_contrast}
+    options: dict[str, Any] = {"include_failed": include_failed, "include_truncated": include_truncated,
+                               "min_contrast": min_contrast}
     decoded: list[DecodedPhySdu] = []
     for index, (_, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
         decoded.extend(decode_profile(profile, phy, pitch, frame_index=frame_index, region=index, **options))

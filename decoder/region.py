@@ -326,7 +326,7 @@ def bright_mask(gray: np.ndarray, noise: float, kernel_rows: int, average_rows: 
     threshold, mean_low, mean_high = split
     if mean_high - mean_low < min_separation * sigma:
         return None
-    bright = (smooth > threshold).astype(np.uint8)
+    bright: np.ndarray = (smooth > threshold).astype(np.uint8)
     if width > 1:
         # The row average spreads the footprint's sides by up to two blocks;
         # take one back so the mask mixes in less background.
@@ -390,7 +390,7 @@ def modulated_mask(gray: np.ndarray, chip_blocks: float, kernel_rows: int, floor
     # and its sides into a neighbouring LED's.
     significant = cv2.blur(squared, box, borderType=cv2.BORDER_REFLECT) > min_power * noise_power
     local = cv2.blur(squared, (1, mean_rows), borderType=cv2.BORDER_REFLECT) > min_power * noise_power
-    modulated = (significant & local).astype(np.uint8)
+    modulated: np.ndarray = (significant & local).astype(np.uint8)
     # The step spills one block above a footprint's top: take it back.
     modulated = cv2.erode(modulated, np.ones((3, 1), np.uint8))
     if width > 1:
@@ -458,7 +458,7 @@ def _extend_ends(gray, mask, x, y, faint, kernel_rows) -> tuple[np.ndarray, int]
     grown = close_vertically(grown, kernel_rows)
     grown[inner] |= mask
     # Keep the rows joined to the region without a gap.
-    filled = grown.any(axis=1)
+    filled = np.asarray(grown.any(axis=1))
     first, last = y - top, y - top + h - 1
     empty_above = np.flatnonzero(~filled[:first])
     empty_below = np.flatnonzero(~filled[last + 1 :])

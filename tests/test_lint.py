@@ -1,4 +1,4 @@
-"""The code passes ruff with the rules in pyproject.toml (pyflakes, pycodestyle's errors, bugbear)."""
+"""The code passes ruff (pyflakes, pycodestyle's errors, bugbear) and mypy, as configured in pyproject.toml."""
 
 from __future__ import annotations
 
@@ -22,3 +22,10 @@ def test_ruff_would_find_an_unused_import(tmp_path):
     run = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", "bad.py"],
                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
     assert run.returncode == 1 and "F401" in run.stdout
+
+
+def test_mypy_finds_nothing_in_the_checked_modules(tmp_path):
+    # The modules checked are listed in pyproject.toml ([tool.mypy] files).
+    run = subprocess.run([sys.executable, "-m", "mypy", "--cache-dir", str(tmp_path / "cache")],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stdout + run.stderr

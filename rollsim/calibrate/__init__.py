@@ -213,9 +213,10 @@ def format_calibration(result: dict) -> str:
     lines += ["", format_table(rows, ("model", "log L", "AIC", "BIC")),
               f"selected by AIC: {result['selected_by_aic']}, by BIC: {result['selected_by_bic']}", ""]
     curves = result["message"]["curves"]
-    rows = [(c["r"], c["strategy"], _number(c["mmbp"]), _number(c["ge"]), _number(c["empirical"])) for c in curves]
+    curve_rows = [(c["r"], c["strategy"], _number(c["mmbp"]), _number(c["ge"]), _number(c["empirical"]))
+                  for c in curves]
     lines += [f"P(whole message of {result['message']['n_packets']} packets in one round)",
-              format_table(rows, ("r", "strategy", "MMBP", "GE", "empirical"))]
+              format_table(curve_rows, ("r", "strategy", "MMBP", "GE", "empirical"))]
     goodput = result.get("goodput_rp")
     if goodput:
         rows = [(g["r"], _number(g["predicted_bps"], 5), _number(g["replayed_bps"], 5),

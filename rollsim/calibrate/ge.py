@@ -185,5 +185,6 @@ def fit_ge(success) -> GeFit:
                           options={"xatol": 1e-7, "fatol": 1e-9, "maxiter": 4000})
         if best is None or result.fun < best.fun:
             best = result
+    assert best is not None  # four starts at least
     p, q, p_e = (float(v) for v in _to_unit(best.x))
     return GeFit(p, q, p_e, -float(best.fun), "maximum likelihood")

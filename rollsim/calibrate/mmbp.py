@@ -199,6 +199,7 @@ def fit_mmbp_cycle(success, max_cycle: int | None = None) -> MmbpFit:
         loglik = bernoulli_loglik(failures, trials)
         if best is None or loglik > best[0] + 1e-9:
             best = (loglik, cycle, start, length, failures, trials)
+    assert best is not None  # max_cycle >= 1: one cycle at least was tried
     _, cycle, start, length, failures, trials = best
     # Emission 0 sits (cycle - start) % cycle slots into the ON arc's cycle.
     return _fit(length, cycle - length, failures, trials, (-start) % cycle, length, "cycle")

@@ -11,12 +11,16 @@ from __future__ import annotations
 
 import csv
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 from pathlib import Path
 
 import numpy as np
 
 from rollsim.budget import check_file_size
 from rollsim.errors import RollsimError
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 _TRUE = {"1", "true", "True", "TRUE", "yes", "ok"}
 _FALSE = {"0", "false", "False", "FALSE", "no"}
@@ -41,7 +45,7 @@ class Trace:
     success: np.ndarray
     start_s: np.ndarray | None = None
     frame_starts_s: np.ndarray | None = None
-    scene: object = None
+    scene: Scene | None = None
     source: str = "<trace>"
 
 

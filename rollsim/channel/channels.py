@@ -231,18 +231,19 @@ class _MmbpRun:
         self._channel = channel
         self._rng = rng
         C = channel.cycle_slots
-        self._cycle = np.arange(C) < channel.M if C <= _TILE_MAX_CYCLE else None
+        self._cycle: np.ndarray | None = np.arange(C) < channel.M if C <= _TILE_MAX_CYCLE else None
         self._slot = int(rng.integers(C))  # slot of the next emission
-        self._tiled = self._cycle
+        self._tiled: np.ndarray | None = self._cycle
 
     def next_block(self, count: int) -> np.ndarray:
         C = self._channel.cycle_slots
         if self._cycle is None:
             on = (self._slot + np.arange(count, dtype=np.int64)) % C < self._channel.M
         else:
-            if self._tiled.size < count + C:
-                self._tiled = np.resize(self._cycle, count + C)
-            on = self._tiled[self._slot : self._slot + count]
+            tiled = self._tiled
+            if tiled is None or tiled.size < count + C:
+                tiled = self._tiled = np.resize(self._cycle, count + C)
+            on = tiled[self._slot : self._slot + count]
         self._slot = (self._slot + count) % C
         return _outcomes(on, self._rng.random(count), self._channel.p_e)
 
@@ -352,23 +353,23 @@ class _TimedRun:
         self._always = W - T_p >= T_f + 2.0 * J
         self._candidates = 0 if (self._never or self._always) else int((W - T_p + 2.0 * J) // T_f) + 3
         self._eps = np.zeros(0)
-        self._eps_first = None  # frame index of self._eps[0]
+        self._eps_first: int | None = None  # frame index of self._eps[0]
 
     def _frame_jitter(self, k_first: int, k_stop: int) -> np.ndarray:
         """``eps_k`` for frames ``k_first .. k_stop - 1`` (non-decreasing calls)."""
-        if self._eps_first is None:
-            self._eps_first = k_first
-        have_stop = self._eps_first + self._eps.size
+        first = k_first if self._eps_first is None else self._eps_first
+        have_stop = first + self._eps.size
         if k_stop > have_stop:
             u = self._frame_rng.random(k_stop - have_stop)
             new = _truncated_normal(u, self._ch.frame_jitter_s, self._ch.jitter_bound_s)
             self._eps = np.concatenate([self._eps, new])
         # Frames before k_first are never needed again: keep memory flat.
-        drop = k_first - self._eps_first
+        drop = k_first - first
         if drop > 0:
             self._eps = self._eps[drop:]
-            self._eps_first = k_first
-        return self._eps[k_first - self._eps_first : k_stop - self._eps_first]
+            first = k_first
+        self._eps_first = first
+        return self._eps[k_first - first : k_stop - first]
 
     def _in_window(self, tx: np.ndarray) -> np.ndarray:
         ch = self._ch
@@ -538,12 +539,12 @@ def camcomsim_sdu_slots(
     if line_code not in _CAMCOMSIM_CODE_LEN:
         raise ValueError(f"line_code must be one of {sorted(_CAMCOMSIM_CODE_LEN)}, got {line_code!r}")
     k = _CAMCOMSIM_CODE_LEN[line_code]
+    chips = _CAMCOMSIM_SYNC_CHIPS + k * (H + P)
     if java_float32:
-        chips = _f32(_CAMCOMSIM_SYNC_CHIPS) + _f32(float(k)) * _f32(H + P)
-        ms = _f32(1000) * (chips / _f32(f))
+        chips32 = _f32(_CAMCOMSIM_SYNC_CHIPS) + _f32(float(k)) * _f32(H + P)
+        ms = _f32(1000) * (chips32 / _f32(f))
         slots = int(float(ms) * 10.0)
     else:
-        chips = _CAMCOMSIM_SYNC_CHIPS + k * (H + P)
         slots = math.floor(chips / Fraction(f) / _SLOT_FRACTION)
     if slots < 1:
         raise ValueError(

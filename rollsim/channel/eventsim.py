@@ -219,7 +219,7 @@ def _simulate_chunk(
     """Runs ``first_run .. stop_run - 1``: an int64 table, one row per run,
     and (if recorded) each run's loss streaks as one int64 array."""
     table = np.empty((stop_run - first_run, len(_COUNTS)), dtype=np.int64)
-    per_run = [] if record_loss_streaks else None
+    per_run: Optional[list] = [] if record_loss_streaks else None
     for row, k in enumerate(range(first_run, stop_run)):
         parts: Optional[list] = [] if record_loss_streaks else None
         table[row] = _simulate_run(channel, schedule, max_emissions, run_seed_sequence(seed, k), parts)

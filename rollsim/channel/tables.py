@@ -51,6 +51,7 @@ def ratio_splits(cycle: int, most: int = 6) -> list[tuple[int, int]]:
     """
     if cycle < 2:
         return []
+    ms: range | list[int]
     if cycle - 1 <= most:
         ms = range(1, cycle)
     else:

@@ -115,6 +115,7 @@ class RenderPipeline:
         """Render frame ``index``: the image and its truth record."""
         state = self.run_stages(index)
         truth = frame_truth(self.setup, state.index, state.start_s, state.led_rows)
+        assert state.image is not None  # the output stage always runs last
         return RenderedFrame(state.index, state.image, truth)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +26,9 @@ from rollsim.optics.radiometry import (
 )
 from rollsim.sensor import RowTiming
 from rollsim.transmitter import Transmitter, transmitter_from_scene
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 # A row counts as an LED row when the footprint covers at least this much
 # pixel area in it: a sliver at the tangent of a disk carries no usable light.
@@ -120,7 +124,7 @@ class SceneSetup:
         (``led_profile``, ``glare``); None means ``footprint``.
     """
 
-    scene: object
+    scene: Scene
     timing: RowTiming
     transmitter: Transmitter
     footprint: Footprint

@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rollsim.seeds import rng as named_rng
+
+if TYPE_CHECKING:
+    from rollsim.render.setup import SceneSetup
 
 
 @dataclass
@@ -40,7 +44,7 @@ class FrameState:
         None means 1.
     """
 
-    setup: object
+    setup: SceneSetup
     index: int
     start_s: float = 0.0
     led_exposure_s: np.ndarray | None = None

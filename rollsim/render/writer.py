@@ -64,6 +64,7 @@ def _init_worker(scene) -> None:
 
 def _render_chunk(indices: list[int], frames_dir: Path) -> list[dict]:
     truths = []
+    assert _WORKER_PIPELINE is not None  # set by _init_worker in this process
     for index in indices:
         frame = _WORKER_PIPELINE.render(index)
         (frames_dir / FRAME_NAME.format(frame.index)).write_bytes(encode_png(frame.image))
