@@ -94,9 +94,10 @@ def _address_space_room() -> Optional[int]:
         return None
     try:
         text = Path("/proc/self/status").read_text()
-        used = int(re.search(r"^VmSize:\s+(\d+) kB", text, re.MULTILINE).group(1)) * 1024
-    except (OSError, AttributeError):
-        used = 0
+    except OSError:
+        text = ""
+    match = re.search(r"^VmSize:\s+(\d+) kB", text, re.MULTILINE)
+    used = int(match.group(1)) * 1024 if match else 0
     return max(0, soft - used)
 
 

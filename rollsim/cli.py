@@ -381,7 +381,7 @@ def cmd_analytic(args) -> int:
         rows = analytic_table(args.M, args.N, args.p_e, args.n_packets, r_values, args.p, args.q)
     except ValueError as exc:
         raise RollsimError(str(exc)) from None
-    contents = {}
+    contents: dict[str, str | bytes] = {}
     if args.json:
         contents[args.json] = _json_text({"M": args.M, "N": args.N, "p_e": args.p_e, "n_packets": args.n_packets,
                                           "rows": rows})
@@ -527,7 +527,8 @@ def cmd_sweep(args) -> int:
 
     def progress(n: int) -> None:
         state["done"] += n
-        bar.update(n)
+        if bar is not None:  # on_start made it before any cell finished
+            bar.update(n)
 
     try:
         result = run_sweep(spec, Path(args.out), workers=args.workers, scheduler=args.scheduler, resume=args.resume,

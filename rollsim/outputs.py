@@ -184,7 +184,7 @@ def _remove(path: Path) -> None:
 
 def _file_record(path: Path) -> dict:
     size = path.stat().st_size
-    record = {"size": size}
+    record: dict = {"size": size}
     if size <= _DIGEST_MAX_BYTES:
         record["sha256"] = hashlib.sha256(path.read_bytes()).hexdigest()
     return record

@@ -136,6 +136,7 @@ def run_scene(
         clock.run("decode", lambda: decode_directory(staging, settings, workers=workers, on_error=on_skipped,
                                                      progress=progress("decode")))
         evaluation = clock.run("evaluate", lambda: evaluate_directory(staging))
+        reason: Optional[str] = None
         try:
             calibration = clock.run("calibrate", lambda: calibrate(load_trace(staging, source=str(out_dir))))
         except RollsimError as exc:
@@ -144,7 +145,6 @@ def run_scene(
             # error names the temporary directory: name the run's.
             calibration, reason = None, str(exc).replace(str(staging), str(out_dir))
         else:
-            reason = None
             (staging / "calibration.json").write_text(json.dumps(calibration, indent=2, allow_nan=False) + "\n",
                                                       encoding="utf-8")
         clock.run("report", lambda: write_report(staging, scene, evaluation, calibration, clock.timings, reason))

@@ -123,13 +123,13 @@ def compute_comparisons(options: PaperOptions, client, progress: Optional[Callab
 
 
 def run_paper(out: Path, options: PaperOptions, *, workers: Optional[int] = None, scheduler: Optional[str] = None,
-              force: bool = False, command: str = "", progress: Optional[Callable[[str], None]] = None) -> dict:
+              force: bool = False, command: str = "", progress: Optional[Callable[[str], None]] = None) -> list:
     """Run every comparison and write ``out/paper.json``, ``out/report.md`` and the plots, atomically.
 
     Returns
     -------
-    dict
-        The ``paper.json`` document.
+    list of dict
+        The ``paper.json`` document: one row per comparison.
     """
     from rollsim.outputs import staged_directory
     from rollsim.paper.report import paper_document, write_report

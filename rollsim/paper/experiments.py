@@ -178,8 +178,8 @@ def claims() -> list[tuple[Claim, str]]:
         testbed = {10: 1000.0}.get(d)
         rows.append((Claim("Fig. 16", "goodput", f"d = {d} cm, G = 50 B, r = 1", testbed, "bit/s"), f"d{d}"))
         through = {10: 1940.0}.get(d)
-        notes = (throughput_bound_note(d, through),) if through else ()
-        rows.append((Claim("Fig. 16", "throughput", f"d = {d} cm, G = 50 B, r = 1", through, "bit/s", notes=notes),
+        bound_notes = (throughput_bound_note(d, through),) if through else ()
+        rows.append((Claim("Fig. 16", "throughput", f"d = {d} cm, G = 50 B, r = 1", through, "bit/s", notes=bound_notes),
                      f"d{d}"))
     rows.append((Claim("Fig. 16", "goodput", "d = 10 cm, G = 50 B, r = 1", 940.0, "bit/s", "camcomsim",
                        ("event",)), "d10"))
@@ -205,18 +205,18 @@ def claims() -> list[tuple[Claim, str]]:
     for length in FIG17_LENGTHS:
         key = "d5" if length == 24 else f"len{length}"
         value = {24: 2100.0}.get(length)
-        notes = ("24 bits is Fig. 14's r = 1 setting as rollsim reads the text (G = 50 B, P = 19, H = 5, 5 cm): "
-                 "the paper gives 1700 bit/s there and 2100 here, 24 % apart",) if value else ()
+        same_setting = ("24 bits is Fig. 14's r = 1 setting as rollsim reads the text (G = 50 B, P = 19, H = 5, "
+                        "5 cm): the paper gives 1700 bit/s there and 2100 here, 24 % apart",) if value else ()
         rows.append((Claim("Fig. 17", "goodput", f"d = 5 cm, G = 50 B, P + H = {length} bits", value, "bit/s",
-                           notes=notes), key))
+                           notes=same_setting), key))
     rows.append((Claim("Fig. 17", "goodput", "d = 5 cm, G = 50 B, P + H = 24 bits", 1900.0, "bit/s", "camcomsim",
                        ("event",)), "d5"))
     rows.append((Claim("Fig. 17", "goodput", "d = 5 cm, G = 50 B, P + H = 64 bits", 900.0, "bit/s", "camcomsim",
                        ("event",), ("the testbed is 'very close' to it",)), "len64"))
     for (d, r), (testbed, camcomsim) in {(5, 1): (570.0, 680.0), (5, 3): (540.0, 720.0), (10, 4): (620.0, 540.0)}.items():
         setting = f"d = {d} cm, 1 kB log, r = {r}"
-        notes = ("H = 9 here", mmbp_cycle_note(d)) if (d, r) == (5, 1) else ("H = 9 here",)
-        rows.append((Claim("Fig. 18", "goodput", setting, testbed, "bit/s", notes=notes), f"log_d{d}_r{r}"))
+        log_notes = ("H = 9 here", mmbp_cycle_note(d)) if (d, r) == (5, 1) else ("H = 9 here",)
+        rows.append((Claim("Fig. 18", "goodput", setting, testbed, "bit/s", notes=log_notes), f"log_d{d}_r{r}"))
         rows.append((Claim("Fig. 18", "goodput", setting, camcomsim, "bit/s", "camcomsim", ("event",),
                            ("H = 5, sequence numbers wrap, as in CamComSim",)), f"log_d{d}_r{r}"))
     for d, r in ((10, 1), (10, 3), (10, 5)):

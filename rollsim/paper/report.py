@@ -57,8 +57,8 @@ def figure_tables(rows: list) -> list[str]:
     header = ["quantity", "setting", "source", "paper", "analytic", "event", "pixel", "unit", "deviation"]
     for figure in figures:
         mine = [row for row in rows if row["figure"] == figure]
-        table = [[row["quantity"], row["setting"], row["source"], _cell(row["paper"]), _cell(row["rollsim_analytic"]),
-                  _cell(row["rollsim_event"]), _pixel_cell(row), row["unit"], _deviation_cell(row)]
+        table = [(row["quantity"], row["setting"], row["source"], _cell(row["paper"]), _cell(row["rollsim_analytic"]),
+                  _cell(row["rollsim_event"]), _pixel_cell(row), row["unit"], _deviation_cell(row))
                  for row in mine]
         lines += [f"### {figure}", "", *markdown_table(table, tuple(header)), ""]
         notes = sorted({note for row in mine for note in row["notes"] if not note.startswith("p_e = ")})

@@ -92,13 +92,13 @@ def _calibration_lines(calibration: dict) -> list[str]:
         )
     goodput = calibration.get("goodput_rp")
     if goodput:
-        rows = [
+        goodput_rows = [
             (g["r"], format_number(g["predicted_bps"], 5), format_number(g["replayed_bps"], 5),
              "n/a" if g["relative_difference"] is None else f"{100 * g['relative_difference']:+.1f} %")
             for g in goodput
         ]
         lines += ["", "RP goodput, the fitted MMBP's prediction (event simulator) against the pixel-level trace replayed:", ""]
-        lines += markdown_table(rows, ("r", "MMBP (bit/s)", "replayed (bit/s)", "difference"))
+        lines += markdown_table(goodput_rows, ("r", "MMBP (bit/s)", "replayed (bit/s)", "difference"))
     return lines
 
 

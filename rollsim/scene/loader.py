@@ -16,7 +16,7 @@ import difflib
 import re
 import stat
 from pathlib import Path
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Optional, Union, get_args
 
 import annotated_types
@@ -291,7 +291,7 @@ def _check_row_timing_layer(camera: Mapping, layer_name: str) -> list[str]:
     return []
 
 
-def _merge_camera(layers: list[tuple[str, Mapping]]) -> tuple[dict, list[str]]:
+def _merge_camera(layers: Sequence[tuple[str, Mapping]]) -> tuple[dict, list[str]]:
     camera: dict = {}
     errors: list[str] = []
     for layer_name, layer in layers:
@@ -371,7 +371,7 @@ def _merge_effects(file_effects, overrides: Mapping):
 # ---------------------------------------------------------------- error lines
 
 
-def _unwrap_model(annotation) -> Optional[type]:
+def _unwrap_model(annotation) -> Optional[type[BaseModel]]:
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return annotation
     for arg in get_args(annotation):
@@ -381,16 +381,15 @@ def _unwrap_model(annotation) -> Optional[type]:
     return None
 
 
-def _model_at(loc: tuple) -> Optional[type]:
+def _model_at(loc: tuple) -> Optional[type[BaseModel]]:
     """The pydantic model class that holds the field at ``loc``'s parent."""
-    model = Scene
+    model: type[BaseModel] = Scene
     for part in loc[:-1]:
         field = model.model_fields.get(part) if isinstance(part, str) else None
-        if field is None:
+        inner = _unwrap_model(field.annotation) if field is not None else None
+        if inner is None:
             return None
-        model = _unwrap_model(field.annotation)
-        if model is None:
-            return None
+        model = inner
     return model
 
 
@@ -431,7 +430,7 @@ _TYPE_WORDS = {
 }
 
 
-def _error_line(error: dict, source: str) -> str:
+def _error_line(error: Mapping, source: str) -> str:
     loc = tuple(error["loc"])
     path = clip(".".join(clip(str(part), 40) for part in loc), 120)
     kind = error["type"]
@@ -555,7 +554,7 @@ def consistency_errors(scene: Scene, source: str, relax: Iterable[str] = ()) -> 
     channel = scene.channel
     if (channel.M is None) != (channel.N is None):
         errors.append(f"{source}: channel: give both M and N, or neither (null derives both from the physics)")
-    elif channel.M is not None and channel.M + channel.N < 1:
+    elif channel.M is not None and channel.N is not None and channel.M + channel.N < 1:
         errors.append(f"{source}: channel: M + N must be at least 1")
     defocus = scene.effects.defocus
     if defocus is not None and defocus.focus_distance_cm * 10.0 <= cam.focal_length_mm:

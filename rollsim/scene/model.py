@@ -57,6 +57,8 @@ class Camera(_Section):
         """t_row, seconds between the starts of two successive rows."""
         if self.row_time_us is not None:
             return self.row_time_us * 1e-6
+        if self.ifg_ratio is None:
+            raise ValueError("camera: give row_time_us or ifg_ratio")  # the loader requires one
         return self.frame_period_s * (1.0 - self.ifg_ratio) / self.height_px
 
     @property

@@ -16,7 +16,7 @@ import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Callable, cast, Optional
 
 from rollsim.sweeps.grid import Axis, Cell, parse_values
 from rollsim.sweeps.spec import STAGES, SweepSpec, spec_from_arguments, validate_cells
@@ -120,9 +120,13 @@ def run_sweep(
             resolved = validate_cells(spec)
             # The output directory only once the cluster answers: an
             # unreachable scheduler leaves nothing behind.
-            active = client if client is not None else started.result()
+            if client is not None:
+                active = client
+            else:
+                assert started is not None  # no client given: the engine was started
+                active = started.result()
         except BaseException:
-            if started is not None:
+            if started is not None and engine is not None:
                 with contextlib.suppress(Exception):
                     started.result()
                 engine.close()
@@ -166,7 +170,7 @@ def _compute(client, spec: SweepSpec, resolved, todo: list, directory, progress,
         # core's second to it.
         _warm_up_writers()
     for batch, result in tasks:
-        rows = _error_rows(batch, result) if isinstance(result, BaseException) else result
+        rows = _error_rows(batch, result) if isinstance(result, BaseException) else cast(list, result)
         directory.append(rows)
         if progress is not None:
             progress(len(rows))

@@ -186,7 +186,7 @@ def build_cells(axes: Sequence[Axis]) -> list[Cell]:
         raise RollsimError(f"the grid has {total} cells, more than {MAX_CELLS}")
     cells = []
     for index, point in enumerate(itertools.product(*(axis.values for axis in axes))):
-        values = {}
+        values: dict = {}
         for axis, item in zip(axes, point):
             values.update(zip(axis.keys, item))
         cells.append(Cell(index, values))

@@ -26,7 +26,7 @@ import json
 import os
 import time
 from pathlib import Path
-from typing import Iterable, Optional
+from typing import Iterable
 
 import yaml
 
@@ -55,7 +55,7 @@ class SweepDirectory:
     def __init__(self, path: Path, shown: Path):
         self.path = path
         self.shown = shown
-        self._journal = None
+        self._journal: int | None = None
         self._last_sync = 0.0
 
     @staticmethod
@@ -111,14 +111,16 @@ class SweepDirectory:
     def append(self, rows: list[dict]) -> None:
         """Commit finished cells: one line each, written whole."""
         with os_failures(target=self.shown):
-            if self._journal is None:
-                self._journal = os.open(self.path / JOURNAL_NAME, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
-                _drop_torn_line(self.path / JOURNAL_NAME, self._journal)
+            journal = self._journal
+            if journal is None:
+                journal = self._journal = os.open(self.path / JOURNAL_NAME, os.O_WRONLY | os.O_APPEND | os.O_CREAT,
+                                                  0o666)
+                _drop_torn_line(self.path / JOURNAL_NAME, journal)
             for row in rows:
-                os.write(self._journal, (json.dumps(row, separators=(",", ":"), allow_nan=False) + "\n").encode())
+                os.write(journal, (json.dumps(row, separators=(",", ":"), allow_nan=False) + "\n").encode())
             now = time.monotonic()
             if now - self._last_sync >= _SYNC_EVERY_S:
-                os.fsync(self._journal)
+                os.fsync(journal)
                 self._last_sync = now
 
     def close(self) -> None:
@@ -157,6 +159,6 @@ def _check_same_sweep(target: Path, record: dict) -> None:
                            "sweep only: give another --out, or --force to start afresh")
 
 
-def describe_progress(done: int, total: int, where: Path) -> Optional[str]:
+def describe_progress(done: int, total: int, where: Path) -> str:
     """What an interrupted sweep leaves, for the message of its exit."""
     return f"{done} of {total} cells are committed in {where}; the same command with --resume continues"

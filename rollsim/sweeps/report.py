@@ -17,7 +17,7 @@ MAX_PANELS = 12
 # Fixed margins of the single-panel plots (fractions of the figure).
 _MARGINS = {"left": 0.14, "right": 0.96, "bottom": 0.12, "top": 0.92}
 # Figures plotted per stage, with the columns of their 95 % interval.
-FIGURES = {
+FIGURES: dict[str, list[tuple[str, tuple | None]]] = {
     "analytic": [("goodput_rp_bps", None), ("goodput_rs_bps", None), ("p_message_rp", None), ("p_message_rs", None),
                  ("M", None), ("N", None), ("roi_ratio", None)],
     "simulate": [("goodput_bps_mean", ("goodput_bps_ci_low", "goodput_bps_ci_high")),

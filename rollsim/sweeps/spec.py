@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 from rollsim import __version__
 from rollsim.errors import RollsimError, SceneError, clip
@@ -33,7 +33,7 @@ from rollsim.sweeps.grid import Axis, Cell, build_cells, grid_axis, zip_axis
 
 STAGES = ("analytic", "simulate", "run")
 CHANNELS = ("mmbp", "timed", "camcomsim")
-DEFAULTS = {"runs": 1000, "frames": 100, "channel": "mmbp", "max_emissions": 50_000, "keep_frames": False}
+DEFAULTS: dict[str, Any] = {"runs": 1000, "frames": 100, "channel": "mmbp", "max_emissions": 50_000, "keep_frames": False}
 _FILE_KEYS = {"scene", "set", "grid", "zip", "stage", "seed", *DEFAULTS}
 
 
