@@ -123,7 +123,7 @@ def _outcomes(in_window: np.ndarray, uniform: np.ndarray, p_e: float) -> np.ndar
 
 
 # ----------------------------------------------------------------------------
-# MMBP
+# What every channel model provides
 # ----------------------------------------------------------------------------
 class ChannelRun(Protocol):
     """One broadcast on a channel: outcome codes of the next emissions."""
@@ -161,6 +161,9 @@ class ChannelModel(abc.ABC):
         """Start one broadcast, its randomness drawn from ``seed_sequence``."""
 
 
+# ----------------------------------------------------------------------------
+# MMBP
+# ----------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MmbpChannel(ChannelModel):
     """The MMBP channel (paper §4.1.2): a cycle of ``M`` ON and ``N`` OFF slots.
