@@ -149,12 +149,14 @@ def image_errors(knob: Knob, scenes: KnobScenes, n_frames: int) -> dict[str, dic
         states = {label: pipeline.run_stages(index) for label, pipeline in pipelines.items()}
         target = full_colour.frame(index) if full_colour is not None else states[reference].image
         for label, state in states.items():
+            image = _stage_array(state.image, "image")
             if label not in errors:
                 adc_bits = pipelines[label].setup.scene.camera.adc_bits
-                errors[label] = ImageError(data_range_of(state.image, adc_bits))
-            errors[label].add(target, state.image, ssim=index in ssim_frames)
+                errors[label] = ImageError(data_range_of(image, adc_bits))
+            errors[label].add(_stage_array(target, "image"), image, ssim=index in ssim_frames)
             if full_colour is None:
-                errors[label].add_electrons(states[reference].electrons, state.electrons)
+                errors[label].add_electrons(_stage_array(states[reference].electrons, "electrons"),
+                                            _stage_array(state.electrons, "electrons"))
     return {label: error.result() for label, error in errors.items()}
 
 
@@ -179,11 +181,18 @@ def decoded_runs(knob: Knob, scenes: KnobScenes, n_frames: int, warmup: int = 1)
     return runs
 
 
+def _stage_array(array: np.ndarray | None, name: str) -> np.ndarray:
+    """A frame state's array that the render's stages always fill."""
+    if array is None:
+        raise RuntimeError(f"the render left the frame's {name} empty")
+    return array
+
+
 def _flat_field_dn(scene, n_frames: int) -> np.ndarray:
     from rollsim.render import RenderPipeline
 
     pipeline = RenderPipeline(scene)
-    return np.concatenate([pipeline.run_stages(index).dn.ravel() for index in range(n_frames)])
+    return np.concatenate([_stage_array(pipeline.run_stages(index).dn, "dn").ravel() for index in range(n_frames)])
 
 
 def _background_e_per_lux(scene) -> float:
@@ -214,7 +223,8 @@ def noise_distances(knob: Knob, scenes: KnobScenes, n_frames: int = FLAT_FIELD_F
     probe_lux = 1000.0
     e_per_lux = _background_e_per_lux(scenes.scene(reference, extra=flat_field_overrides(probe_lux, reflectance)))
     levels = flat_field_levels_e(ref_scene)
-    floor, distances = [], {s.label: [] for s in knob.settings}
+    floor: list[float | None] = []
+    distances: dict[str, list[float | None]] = {s.label: [] for s in knob.settings}
     for level in levels:
         lux = level / e_per_lux if e_per_lux > 0 else math.inf
         if not lux <= MAX_AMBIENT_LUX:
@@ -266,8 +276,9 @@ def measure_knob(scene, knob: Knob, n_frames: int) -> dict:
     labels = [s.label for s in knob.settings]
     errors = None if knob.noise else image_errors(knob, scenes, n_frames)
     reference = labels[0]
-    if knob.full_colour:
-        reference = min(labels, key=lambda label: (errors[label]["rms_dn"], labels.index(label)))
+    if knob.full_colour and errors is not None:
+        found = errors
+        reference = min(labels, key=lambda label: (found[label]["rms_dn"], labels.index(label)))
     noise = noise_distances(knob, scenes) if knob.noise else None
     runs = decoded_runs(knob, scenes, n_frames)
     decode = {label: _decode_figures(run) for label, (run, _) in runs.items()}
@@ -312,7 +323,7 @@ def _median_ms_in_turn(pipelines: list, n_frames: int, warmup: int = 1) -> list[
     for index in range(warmup):
         for pipeline in pipelines:
             pipeline.render(index)
-    seconds = [[] for _ in pipelines]
+    seconds: list[list[float]] = [[] for _ in pipelines]
     for index in range(n_frames):
         for pipeline, times in zip(pipelines, seconds):
             start = time.perf_counter()

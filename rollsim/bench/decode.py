@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import json
 import tempfile
 from pathlib import Path
@@ -48,7 +50,7 @@ def decode_ms_per_frame(scene_name: str, frames: int) -> tuple[float, float]:
 
 def bench_decode(frames: int = 30, scenes=SCENES) -> dict:
     """Run the decode benchmark; a JSON-ready dict."""
-    result = {"resolution": "1920x1080", "frames": frames, "machine": machine(), "scenes": {}}
+    result: dict[str, Any] = {"resolution": "1920x1080", "frames": frames, "machine": machine(), "scenes": {}}
     for name in scenes:
         decode, read = decode_ms_per_frame(name, frames)
         result["scenes"][name] = {"decode_ms_per_frame": round(decode, 2), "png_read_ms_per_frame": round(read, 2)}

@@ -19,6 +19,8 @@ Memory is reported two ways, because the runs happen in worker processes:
 
 from __future__ import annotations
 
+from typing import Any
+
 import json
 import os
 import resource
@@ -30,7 +32,7 @@ from rollsim.channel.eventsim import simulate_broadcast
 from rollsim.outputs import write_file
 from rollsim.transmitter.schedule import Schedule
 
-WORKLOAD = {
+WORKLOAD: dict[str, Any] = {
     "channel": "camcomsim",
     "n_packets": 1000,
     "strategy": "rp",

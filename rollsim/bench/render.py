@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import json
 import shutil
 import subprocess
@@ -77,7 +79,8 @@ def peak_rss_mb(frames: int, workers: int) -> float:
 
 def bench_render(frames: int = 20, e2e_frames: int = 120, rss_frames: tuple[int, int] = (200, 2000), workers: int = 2) -> dict:
     """Run the render benchmark; returns a JSON-ready dict."""
-    result = {"scene": SCENE, "resolution": "1920x1080", "machine": machine(), "in_memory_ms_per_frame": {}}
+    result: dict[str, Any] = {"scene": SCENE, "resolution": "1920x1080", "machine": machine(),
+                              "in_memory_ms_per_frame": {}}
     for name, overrides in VARIANTS.items():
         result["in_memory_ms_per_frame"][name] = round(in_memory_ms_per_frame(overrides, frames), 1)
     result["png_encode_ms_per_frame"] = round(png_ms_per_frame(frames), 1)

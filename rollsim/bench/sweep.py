@@ -17,6 +17,8 @@ LED rows need one FFT set-up per distinct emitter and exposure).
 
 from __future__ import annotations
 
+from typing import Any
+
 import json
 import subprocess
 import sys
@@ -94,13 +96,13 @@ def bench_sweep(frames: int = 100, repeats: int = 3) -> dict:
     The run stage alternates 1 and 2 workers ``repeats`` times, so that a
     drift of the machine's speed hits both alike; the median of each counts.
     """
-    result = {"machine": machine(), "repeats": repeats}
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    result: dict[str, Any] = {"machine": machine(), "repeats": repeats}
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
         result["analytic_10000_cells_s"] = command_seconds(ANALYTIC_GRID, "analytic", [], tmp / "analytic")
         result["simulate_100_cells_1000_runs_s"] = command_seconds(SIMULATE_GRID, "simulate", ["--runs", "1000"],
                                                                    tmp / "simulate")
-        runs = {1: [], 2: []}
+        runs: dict[int, list] = {1: [], 2: []}
         for repeat in range(repeats):
             for workers in (1, 2):
                 runs[workers].append(run_stage_phases(workers, frames, tmp / f"run{workers}-{repeat}"))

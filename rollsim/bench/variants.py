@@ -15,11 +15,15 @@ from __future__ import annotations
 import copy
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rollsim.errors import RollsimError
 from rollsim.render.setup import full_scale_electrons
 from rollsim.scene import scene_from_dict
 from rollsim.scene.loader import scene_to_dict
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 # The effects that add noise: removed for the "noiseless" image, so that a
 # setting and its reference differ only by the knob.
@@ -105,7 +109,7 @@ def knob_by_name(name: str) -> Knob:
     raise RollsimError(f"unknown knob {name!r}; knobs: {', '.join(KNOB_NAMES)}")
 
 
-def _variant(data: dict, source: str, overrides) -> object:
+def _variant(data: dict, source: str, overrides) -> Scene:
     return scene_from_dict(data, source, list(overrides))
 
 
@@ -203,8 +207,8 @@ class EffectPair:
     """The scenes with and without one effect, for its cost."""
 
     effect: str
-    with_effect: object
-    without_effect: object
+    with_effect: Scene
+    without_effect: Scene
     listed: bool
     note: str
 
