@@ -420,7 +420,7 @@ def outcomes_csv(outcomes: list[dict]) -> str:
 
 def format_summary(summary: dict) -> str:
     """A short table of an evaluation summary."""
-    from rollsim.tables import format_percent
+    from rollsim.text_tables import format_percent
 
     unreadable = summary.get("frames_unreadable")
     lines = [

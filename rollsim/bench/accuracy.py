@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rollsim.tables import format_table, markdown_table
+from rollsim.text_tables import format_table, markdown_table
 from rollsim.bench.common import machine
 from rollsim.bench.image_error import IMAGE_FIELDS, ImageError, data_range_of
 from rollsim.stream import DecodedRun, fitted_mmbp

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import cv2
 
-from rollsim.tables import format_table
+from rollsim.text_tables import format_table
 from rollsim.bench.common import machine, seconds_per_call
 from rollsim.render import render_frames
 from rollsim.render.writer import encode_png

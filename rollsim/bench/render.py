@@ -12,7 +12,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from rollsim.tables import format_table
+from rollsim.text_tables import format_table
 from rollsim.bench.common import machine, seconds_per_call
 from rollsim.outputs import write_file
 from rollsim.render import RenderPipeline

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 
-from rollsim.tables import format_table, markdown_table
+from rollsim.text_tables import format_table, markdown_table
 from rollsim.bench.common import machine
 from rollsim.stream import scene_outcomes
 from rollsim.parallel import process_pool

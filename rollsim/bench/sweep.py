@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 from rollsim.bench.common import machine
-from rollsim.tables import format_table
+from rollsim.text_tables import format_table
 
 SCENE = "paper-geometric"
 ANALYTIC_GRID = ["link.distance_cm=5:54.5:0.5", "camera.exposure_us=10:1000:10"]

@@ -189,8 +189,8 @@ __all__ = [
 
 def format_calibration(result: dict) -> str:
     """The fitted parameters and the model comparison as plain text."""
-    from rollsim.tables import format_number as _number
-    from rollsim.tables import format_table
+    from rollsim.text_tables import format_number as _number
+    from rollsim.text_tables import format_table
 
     m, ge, mom = result["mmbp"], result["ge"], result["ge_moments"]
     lines = [

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 from rollsim.paper.experiments import DISTANCES_CM, ROI_MEASURED
-from rollsim.tables import format_number, markdown_table
+from rollsim.text_tables import format_number, markdown_table
 
 READINGS = (
     "Fig. 14–17 use 'a 24 bits length PHY-SDU' with P = 19, H = 5: the length is P + H. Fig. 17's axis is read "

@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from rollsim.calibrate.mmbp import p_e_text
-from rollsim.tables import format_number, format_percent, markdown_table
+from rollsim.text_tables import format_number, format_percent, markdown_table
 from rollsim.report.plots import (
     plot_goodput,
     plot_message_curves,

@@ -17,14 +17,14 @@ than the tails beyond ``TRUNCATION_SIGMAS`` standard deviations is refused
 (:mod:`rollsim.scene.frame_jitter_limits`, which the scene loader checks):
 the law would no longer be the normal it claims to be.
 
-The draws come from one per-scene stream (:mod:`rollsim.walk`), so
+The draws come from one per-scene stream (:mod:`rollsim.frame_sequence`), so
 ε_k depends only on the seed and k.
 """
 
 from __future__ import annotations
 
 from rollsim.scene.frame_jitter_limits import jitter_bound_s
-from rollsim.walk import FrameSequence
+from rollsim.frame_sequence import FrameSequence
 
 STREAM = "frame_jitter"
 
