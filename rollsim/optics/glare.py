@@ -37,15 +37,28 @@ import math
 import numpy as np
 
 from rollsim.optics.footprint import Footprint
+from rollsim.validation import as_positive
 
 
 def glare_core_px(core_angle_deg: float, focal_length_m: float, pixel_pitch_m: float) -> float:
-    """The halo's core radius r₀ in pixels: f·tan θ₀ over the pixel pitch."""
+    """The halo's core radius r₀ in pixels: f·tan θ₀ over the pixel pitch (θ₀ in (0, 90) degrees, f and pitch in m)."""
+    angle = as_positive(core_angle_deg, "core_angle_deg")
+    if not angle < 90.0:
+        raise ValueError(f"core_angle_deg must be below 90, got {core_angle_deg!r}")
+    as_positive(focal_length_m, "focal_length_m")
+    as_positive(pixel_pitch_m, "pixel_pitch_m")
     return focal_length_m * math.tan(math.radians(core_angle_deg)) / pixel_pitch_m
 
 
 def moffat_mass_beyond(radius_px: float, core_px: float, exponent: float) -> float:
-    """Fraction of a unit-mass Moffat halo beyond ``radius_px``: (1 + R²/r₀²)^(1−β)."""
+    """Fraction of a unit-mass Moffat halo beyond ``radius_px``: (1 + R²/r₀²)^(1−β).
+
+    ``radius_px`` >= 0, ``core_px`` > 0, ``exponent`` β > 1 (a finite mass).
+    """
+    as_positive(radius_px, "radius_px", allow_zero=True)
+    as_positive(core_px, "core_px")
+    if not as_positive(exponent, "exponent") > 1.0:
+        raise ValueError(f"exponent must be > 1 (a halo of finite mass), got {exponent!r}")
     return (1.0 + (radius_px / core_px) ** 2) ** (1.0 - exponent)
 
 

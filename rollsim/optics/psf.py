@@ -50,6 +50,7 @@ import math
 import numpy as np
 
 from rollsim.optics.footprint import Footprint, footprint
+from rollsim.validation import as_positive
 
 KERNEL_METHODS = ("separable", "full")
 # The largest blur circle rollsim convolves, in pixels: a larger one would
@@ -113,6 +114,14 @@ def disk_kernel(diameter_px: float) -> np.ndarray:
     return area / area.sum()
 
 
+def _check_beyond_focal_length(focal_length_m: float, distance_m: float, focus_distance_m: float) -> None:
+    """A real image needs f > 0 and both distances beyond f (thin lens)."""
+    f = as_positive(focal_length_m, "focal_length_m")
+    for name, value in (("distance_m", distance_m), ("focus_distance_m", focus_distance_m)):
+        if not as_positive(value, name) > f:
+            raise ValueError(f"{name} = {value!r} must exceed the focal length {f!r} m")
+
+
 def circle_of_confusion_m(focal_length_m: float, f_number: float, distance_m: float, focus_distance_m: float) -> float:
     """Thin-lens blur-circle diameter on the sensor, in metres.
 
@@ -132,8 +141,8 @@ def circle_of_confusion_m(focal_length_m: float, f_number: float, distance_m: fl
     focus_distance_m : float
         Focus distance d_f; must exceed f.
     """
-    if not (distance_m > focal_length_m and focus_distance_m > focal_length_m):
-        raise ValueError("distance and focus distance must exceed the focal length")
+    _check_beyond_focal_length(focal_length_m, distance_m, focus_distance_m)
+    as_positive(f_number, "f_number")
     aperture_m = focal_length_m / f_number
     return aperture_m * abs(distance_m - focus_distance_m) / distance_m * focal_length_m / (focus_distance_m - focal_length_m)
 
@@ -146,6 +155,7 @@ def defocus_image_scale(focal_length_m: float, distance_m: float, focus_distance
     focused image has h·v/d. The LED's light is the same, spread over
     (v_f/v)² of the area.
     """
+    _check_beyond_focal_length(focal_length_m, distance_m, focus_distance_m)
     v = focal_length_m * distance_m / (distance_m - focal_length_m)
     v_f = focal_length_m * focus_distance_m / (focus_distance_m - focal_length_m)
     return v_f / v

@@ -13,9 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.validation import as_positive
+
 
 def image_distance_m(focal_length_m: float, magnification: float) -> float:
-    """Thin-lens image distance v = f·(1 + m)."""
+    """Thin-lens image distance v = f·(1 + m), in m (f > 0 in m, m >= 0)."""
+    as_positive(focal_length_m, "focal_length_m")
+    as_positive(magnification, "magnification", allow_zero=True)
     return focal_length_m * (1.0 + magnification)
 
 

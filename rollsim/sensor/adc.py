@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.validation import as_count, as_positive
+
 
 def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn: int, adc_bits: int) -> np.ndarray:
     """ADC: DN = clip(round(K·e) + black level, 0, 2^bits − 1), as uint16.
@@ -20,6 +22,10 @@ def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn:
     black_level_dn : int
     adc_bits : int
     """
+    as_positive(gain_dn_per_e, "gain_dn_per_e")
+    as_count(black_level_dn, "black_level_dn")
+    if not 1 <= as_count(adc_bits, "adc_bits") <= 16:
+        raise ValueError(f"adc_bits must be in [1, 16] (uint16 output), got {adc_bits!r}")
     dtype = electrons.dtype.type
     dn = electrons * dtype(gain_dn_per_e)
     dn += dtype(black_level_dn + 0.5)

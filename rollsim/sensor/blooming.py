@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.validation import as_positive, as_probability
+
 
 def _spill_down(charge: np.ndarray, spill: np.ndarray, full_well_e: float) -> np.ndarray:
     """Fill the room below each pixel with ``spill``; returns the charge left over at the bottom.
@@ -62,6 +64,8 @@ def bloom(electrons: np.ndarray, full_well_e: float, spill_fraction: float = 1.0
     float
         Spilled charge that left the frame at the top and bottom edges, in e⁻.
     """
+    as_positive(full_well_e, "full_well_e")
+    as_probability(spill_fraction, "spill_fraction")
     columns = np.flatnonzero((electrons > full_well_e).any(axis=0))
     if columns.size == 0:
         return 0.0
