@@ -24,13 +24,16 @@ import math
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator, Optional
+from typing import TYPE_CHECKING, Callable, Iterator, Optional
 
 from rollsim.errors import RollsimError
 from rollsim.outputs import staged_files
 from rollsim.parallel import chunked, ordered_chunk_map
 from rollsim.protocol import PhyFormat
 from rollsim.transmitter import phy_from_scene
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 DECODED_NAME = "decoded.jsonl"
 SUMMARY_NAME = "decode.json"
@@ -96,7 +99,7 @@ class DecodeSummary:
         }
 
 
-def settings_from_scene(scene, clock_hz: Optional[float] = None, row_time_us: Optional[float] = None) -> DecodeSettings:
+def settings_from_scene(scene: Scene, clock_hz: Optional[float] = None, row_time_us: Optional[float] = None) -> DecodeSettings:
     """Decode settings from a scene; ``clock_hz`` and ``row_time_us`` override it."""
     clock = scene.link.clock_hz if clock_hz is None else clock_hz
     row_time_s = scene.camera.row_time_s if row_time_us is None else row_time_us * 1e-6

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rollsim.budget import check_memory
@@ -9,12 +11,15 @@ from rollsim.channel.prediction import link_prediction
 from rollsim.protocol import camcomsim_sdu_duration_s, last_payload_bits
 from rollsim.transmitter import transmitter_from_scene
 
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
+
 
 def _chip_string(chips) -> str:
     return "".join("#" if c else "." for c in np.asarray(chips).ravel())
 
 
-def describe_scene(scene, emissions: int = 12) -> dict:
+def describe_scene(scene: Scene, emissions: int = 12) -> dict:
     """Key figures of a scene, as a JSON-ready dict.
 
     Parameters

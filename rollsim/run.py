@@ -16,10 +16,13 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Optional
+from typing import TYPE_CHECKING, Callable, Iterable, Optional
 
 from rollsim.errors import RollsimError
 from rollsim.outputs import staged_directory
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 STAGES = ("render", "decode", "evaluate", "calibrate", "report")
 
@@ -71,7 +74,7 @@ class _StageClock:
 
 
 def run_scene(
-    scene,
+    scene: Scene,
     out_dir: Path,
     n_frames: int,
     *,

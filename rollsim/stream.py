@@ -11,9 +11,14 @@ accuracy`` several fidelity settings side by side, a frame at a time.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import time
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 
 class DecodedRun:
@@ -80,7 +85,7 @@ class DecodedRun:
         return evaluate(self.truth, self.decoded, self.pipeline.setup.transmitter)
 
 
-def fitted_mmbp(evaluation, truth: list[dict], scene) -> dict | None:
+def fitted_mmbp(evaluation, truth: list[dict], scene: Scene) -> dict | None:
     """The MMBP fit of an evaluation's outcomes, as :func:`rollsim.calibrate.calibrate` gives it.
 
     Returns
@@ -104,7 +109,7 @@ def fitted_mmbp(evaluation, truth: list[dict], scene) -> dict | None:
         return None
 
 
-def scene_outcomes(scene, n_frames: int) -> dict:
+def scene_outcomes(scene: Scene, n_frames: int) -> dict:
     """Render, decode and evaluate ``n_frames`` of a scene in memory.
 
     Returns

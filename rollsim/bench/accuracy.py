@@ -32,6 +32,8 @@ parameters, or the defaults) minus without it, the two rendered in turn.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import csv
 import io
 import json
@@ -59,13 +61,16 @@ from rollsim.bench.variants import (
 from rollsim.errors import OutputError, RollsimError
 from rollsim.sensor.cfa import CFA_PATTERNS, cfa_channels
 
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
+
 SSIM_FRAMES = 4  # frames whose SSIM is computed, spread over the run
 FLAT_FIELD_FRAMES = 1  # frames per flat field (a 1080p frame holds 2 M samples)
 MAX_AMBIENT_LUX = 1e7  # the scene key's limit
 OUTPUT_FILES = ("accuracy.csv", "effects_cost.csv", "accuracy.json", "accuracy.md", "accuracy_pareto.png")
 
 
-def _timed_pipeline(scene):
+def _timed_pipeline(scene: Scene):
     """A render pipeline and its setup time in ms (best of two: the first also fills caches)."""
     from rollsim.render import RenderPipeline
 
@@ -188,14 +193,14 @@ def _stage_array(array: np.ndarray | None, name: str) -> np.ndarray:
     return array
 
 
-def _flat_field_dn(scene, n_frames: int) -> np.ndarray:
+def _flat_field_dn(scene: Scene, n_frames: int) -> np.ndarray:
     from rollsim.render import RenderPipeline
 
     pipeline = RenderPipeline(scene)
     return np.concatenate([_stage_array(pipeline.run_stages(index).dn, "dn").ravel() for index in range(n_frames)])
 
 
-def _background_e_per_lux(scene) -> float:
+def _background_e_per_lux(scene: Scene) -> float:
     """Mean photo-electrons per pixel per lux of ambient light in a flat field of ``scene``."""
     from rollsim.render import RenderPipeline
 
@@ -270,7 +275,7 @@ def _decode_figures(run: DecodedRun) -> dict:
     }
 
 
-def measure_knob(scene, knob: Knob, n_frames: int) -> dict:
+def measure_knob(scene: Scene, knob: Knob, n_frames: int) -> dict:
     """Every setting of ``knob`` on ``scene`` against the reference (see the module docstring)."""
     scenes = knob_scenes(scene, knob)
     labels = [s.label for s in knob.settings]
@@ -332,7 +337,7 @@ def _median_ms_in_turn(pipelines: list, n_frames: int, warmup: int = 1) -> list[
     return [1e3 * float(np.median(times)) for times in seconds]
 
 
-def effect_cost(scene, name: str, n_frames: int) -> dict:
+def effect_cost(scene: Scene, name: str, n_frames: int) -> dict:
     """ms per frame (and setup ms) that effect ``name`` adds to ``scene``."""
     row = {"effect": name, "listed": name in scene.effects.enabled(), "parameters": None, "ms_with": None,
            "ms_without": None, "ms_added": None, "setup_ms_added": None, "note": ""}
@@ -356,7 +361,7 @@ def effect_cost(scene, name: str, n_frames: int) -> dict:
     return row
 
 
-def bench_accuracy(scene, n_frames: int = 30, knobs=KNOBS, effects=None, progress=None) -> dict:
+def bench_accuracy(scene: Scene, n_frames: int = 30, knobs=KNOBS, effects=None, progress=None) -> dict:
     """Run the accuracy benchmark on a scene; a JSON-ready dict (no NaN or inf).
 
     Parameters

@@ -149,7 +149,7 @@ class KnobScenes:
         return _variant(self.data, self.source, [*setting.overrides, *removed, *extra])
 
 
-def knob_scenes(scene, knob: Knob) -> KnobScenes:
+def knob_scenes(scene: Scene, knob: Knob) -> KnobScenes:
     """The base of a knob's variants: ``scene`` with the knob's effect listed."""
     data = scene_to_dict(scene)
     notes = []
@@ -182,7 +182,7 @@ def flat_field_overrides(ambient_lux: float, reflectance: float) -> list[str]:
     ]
 
 
-def flat_field_levels_e(scene, low_e: float = 2.0) -> list[float]:
+def flat_field_levels_e(scene: Scene, low_e: float = 2.0) -> list[float]:
     """Signal levels (mean photo-electrons per pixel) of the flat fields.
 
     A low level of ``low_e`` electrons, where the Gaussian approximation of
@@ -213,7 +213,7 @@ class EffectPair:
     note: str
 
 
-def effect_pair(scene, name: str) -> EffectPair:
+def effect_pair(scene: Scene, name: str) -> EffectPair:
     """``scene`` with and without effect ``name`` (at the scene's or default parameters).
 
     Raises

@@ -8,6 +8,8 @@ physics alone.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rollsim.calibrate.compare import (
@@ -33,6 +35,9 @@ from rollsim.calibrate.replay import mmbp_goodput_bps, replay_goodput_bps
 from rollsim.calibrate.trace import Trace, load_trace
 from rollsim.errors import RollsimError
 
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
+
 RUN_LENGTH_BINS = 12
 
 
@@ -55,7 +60,7 @@ def fit_mmbp(trace: Trace) -> MmbpFit:
     return fit_mmbp_cycle(trace.success)
 
 
-def physics_prediction(scene) -> dict:
+def physics_prediction(scene: Scene) -> dict:
     """(M, N) from the scene alone: frame period, LED rows × row time + exposure, PHY-SDU duration.
 
     Always from the physics, even when the scene's ``channel`` gives M and N
@@ -76,7 +81,7 @@ def physics_prediction(scene) -> dict:
     }
 
 
-def goodput_consistency(success, mmbp: MmbpFit, scene, r_values=range(1, 7), seed: int = 1) -> list[dict]:
+def goodput_consistency(success, mmbp: MmbpFit, scene: Scene, r_values=range(1, 7), seed: int = 1) -> list[dict]:
     """RP(r) goodput the fitted MMBP predicts (event simulator) against the trace replayed.
 
     The paper's "within 10 % of the testbed", with the rendered trace as the
@@ -161,7 +166,7 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
     return result
 
 
-def _scene_packets(scene) -> int:
+def _scene_packets(scene: Scene) -> int:
     from rollsim.protocol import n_packets
 
     return n_packets(scene.link.message_bytes, scene.link.payload_bits)

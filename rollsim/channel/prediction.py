@@ -8,6 +8,8 @@ of RP and RS. No rendering: geometry and closed forms only.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import functools
 
 from rollsim.channel import analytic
@@ -18,6 +20,9 @@ from rollsim.channel.scene_channel import (
     scene_led_rows,
 )
 from rollsim.protocol.packets import n_packets
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 __all__ = ["link_prediction", "mmbp_figures"]
 
@@ -58,7 +63,7 @@ def mmbp_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: int, 
     return dict(_cached_figures(int(M), int(N), int(r), float(p_e), int(n), int(payload_bits), float(sdu_s)))
 
 
-def link_prediction(scene) -> dict:
+def link_prediction(scene: Scene) -> dict:
     """The scene's link as the physics and the MMBP analysis see it.
 
     Returns

@@ -40,8 +40,8 @@ from __future__ import annotations
 
 import functools
 import os
-
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from rollsim.channel.analytic import MmbpSlots, mmbp_slots_from_physics
 from rollsim.channel.channels import CamcomsimChannel, MmbpChannel, TimedChannel, camcomsim_roi
@@ -56,6 +56,9 @@ from rollsim.protocol.packets import n_packets as packets_of_message
 from rollsim.scene.loader import DISTANCE_WITHOUT_LENS, SEQUENCE_WRAP, relaxations_used
 from rollsim.transmitter.schedule import Schedule
 from rollsim.transmitter.transmitter import phy_from_scene
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 __all__ = [
     "CHANNEL_KINDS",
@@ -102,12 +105,12 @@ def _ifg_ratio_for_camcomsim(camera) -> float:
     return min(max(ifg, 0.0), 1.0)  # the effective ratio may leave [0, 1] by an ulp
 
 
-def sdu_duration_from_scene(scene) -> float:
+def sdu_duration_from_scene(scene: Scene) -> float:
     """Duration of one PHY-SDU in seconds (SYNC, coded header, payload, check)."""
     return phy_from_scene(scene).sdu_duration_s(scene.link.clock_hz)
 
 
-def scene_led_rows(scene) -> tuple[int, int]:
+def scene_led_rows(scene: Scene) -> tuple[int, int]:
     """First and last row of the scene's LED (``last < first`` if none).
 
     The rows its geometric image touches
@@ -134,13 +137,13 @@ def _readable_rows(scene_json: str) -> tuple[int, int]:
     return rows if rows else (0, -1)
 
 
-def led_row_count(scene) -> int:
+def led_row_count(scene: Scene) -> int:
     """Number of frame rows of the scene's LED (0 if none; :func:`scene_led_rows`)."""
     first, last = scene_led_rows(scene)
     return max(0, last - first + 1)
 
 
-def capture_window_from_scene(scene) -> float:
+def capture_window_from_scene(scene: Scene) -> float:
     """Capture window per frame, seconds: ``rows x row_time + exposure``.
 
     The LED's rows start one row time apart; the last one integrates for one
@@ -153,7 +156,7 @@ def capture_window_from_scene(scene) -> float:
     return rows * scene.camera.row_time_s + scene.camera.exposure_s
 
 
-def mmbp_slots_from_scene(scene) -> MmbpSlots:
+def mmbp_slots_from_scene(scene: Scene) -> MmbpSlots:
     """MMBP ``(M, N)`` of a scene: given, or derived from its physics.
 
     With ``channel.M`` and ``channel.N`` both null,
@@ -174,7 +177,7 @@ def mmbp_slots_from_scene(scene) -> MmbpSlots:
     return MmbpSlots(M=M, N=N, cycle_slots=M + N, mean_whole_sdus_per_frame=float(M))
 
 
-def channel_from_scene(scene, kind: str, *, java_float32: bool = False):
+def channel_from_scene(scene: Scene, kind: str, *, java_float32: bool = False):
     """The event simulator's channel of kind ``kind`` for ``scene``.
 
     Parameters
@@ -232,7 +235,7 @@ class SceneBroadcast:
     warnings: tuple = ()
 
 
-def _refuse_relaxed(scene, kind: str) -> None:
+def _refuse_relaxed(scene: Scene, kind: str) -> None:
     """Refuse a scene loaded with relaxations that ``kind`` does not grant."""
     link, focal_mm = scene.link, scene.camera.focal_length_mm
     needed = [rule for rule in relaxations_used(scene) if rule not in _RELAXATIONS[kind]]
@@ -249,7 +252,7 @@ def _refuse_relaxed(scene, kind: str) -> None:
         )
 
 
-def _camcomsim_warnings(scene, channel: CamcomsimChannel, n_packets: int) -> tuple[str, ...]:
+def _camcomsim_warnings(scene: Scene, channel: CamcomsimChannel, n_packets: int) -> tuple[str, ...]:
     link, warnings = scene.link, []
     if SEQUENCE_WRAP in relaxations_used(scene):
         numbers = 2**link.header_bits
@@ -267,7 +270,7 @@ def _camcomsim_warnings(scene, channel: CamcomsimChannel, n_packets: int) -> tup
     return tuple(warnings)
 
 
-def broadcast_from_scene(scene, kind: str, *, java_float32: bool = False) -> SceneBroadcast:
+def broadcast_from_scene(scene: Scene, kind: str, *, java_float32: bool = False) -> SceneBroadcast:
     """Channel, schedule (strategy, packets, repeats) and ``H``, ``P`` of a scene.
 
     Every kind cuts the ``G = link.message_bytes`` byte message into
@@ -304,7 +307,7 @@ def _whole_or_float(value: float):
     return int(value) if float(value).is_integer() else float(value)
 
 
-def camcomsim_parameters(scene, result: BroadcastResult, *, save_path: str = "./", verbose: int = 1) -> dict:
+def camcomsim_parameters(scene: Scene, result: BroadcastResult, *, save_path: str = "./", verbose: int = 1) -> dict:
     """CamComSim's ``simuParams`` of a simulated scene: every field it writes, in its order.
 
     Parameters
@@ -360,7 +363,7 @@ def camcomsim_parameters(scene, result: BroadcastResult, *, save_path: str = "./
     }
 
 
-def check_runs_first(scene, runs, workers=None, max_emissions: int = DEFAULT_MAX_EMISSIONS,
+def check_runs_first(scene: Scene, runs, workers=None, max_emissions: int = DEFAULT_MAX_EMISSIONS,
                      record_loss_streaks: bool = False) -> None:
     """Refuse too many runs before the scene's channel is built (which may
     render the LED's glare): a clear error, at once, even under a tight limit.
@@ -372,7 +375,7 @@ def check_runs_first(scene, runs, workers=None, max_emissions: int = DEFAULT_MAX
 
 
 def simulate_scene(
-    scene,
+    scene: Scene,
     kind: str,
     *,
     runs: int = 1000,

@@ -113,7 +113,8 @@ def sensor_illuminance_lx(luminance_cd_m2: float, f_number: float, transmission:
     return math.pi * luminance_cd_m2 * transmission / (4.0 * f_number**2 * (1.0 + magnification) ** 2)
 
 
-def photon_rate_per_pixel(illuminance_lx: float, pixel_pitch_m: float, photons_per_lumen: float) -> float:
+def photon_rate_per_pixel(illuminance_lx: float | np.ndarray, pixel_pitch_m: float,
+                          photons_per_lumen: float | np.ndarray) -> float | np.ndarray:
     """Photons per second reaching one pixel of pitch ``pixel_pitch_m`` (m, > 0).
 
     ``illuminance_lx`` and ``photons_per_lumen`` >= 0, numbers or arrays.

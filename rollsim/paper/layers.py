@@ -7,6 +7,11 @@ paper's numbers.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
+
 BASE_SCENE = "paper-default"
 
 
@@ -17,7 +22,7 @@ def load(overrides, relax=()):
     return load_scene(BASE_SCENE, list(overrides), relax=relax)
 
 
-def analytic_figures(scene) -> dict:
+def analytic_figures(scene: Scene) -> dict:
     """ROI ratio, M, N, expected goodput and throughput from the physics and the MMBP.
 
     The throughput is ``(H + P)`` bits per received PHY-SDU: the MMBP
@@ -33,7 +38,7 @@ def analytic_figures(scene) -> dict:
             "throughput_bps": throughput}
 
 
-def event_figures(scene, channel: str, runs: int, workers: int = 1) -> dict:
+def event_figures(scene: Scene, channel: str, runs: int, workers: int = 1) -> dict:
     """Means over ``runs`` runs of the event simulator on ``channel`` (seeded by the scene)."""
     from rollsim.channel.scene_channel import simulate_scene
 

@@ -20,7 +20,11 @@ only maps scene parameters onto them.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import replace
+
+import numpy as np
 
 from rollsim.errors import RollsimError
 from rollsim.optics import magnification
@@ -41,6 +45,10 @@ from rollsim.render.readable import readable_rows
 from rollsim.render.setup import ambient_sensor_illuminances_lx, led_rows_from_coverage, led_sensor_illuminance_lx
 from rollsim.sensor.cfa import cfa_channels
 
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
+    from rollsim.render.setup import SceneSetup
+
 
 def blur_kernel(params):
     """The ``blur`` effect's Gaussian kernel: a separable pair or a 2-D array."""
@@ -48,14 +56,15 @@ def blur_kernel(params):
     return (k, k) if params.kernel == "separable" else k[:, None] * k[None, :]
 
 
-def defocus_diameter_px(scene) -> float:
+def defocus_diameter_px(scene: Scene) -> float:
     """The ``defocus`` effect's blur-circle diameter in pixels."""
-    cam = scene.camera
-    c_m = circle_of_confusion_m(cam.focal_length_mm * 1e-3, cam.f_number, scene.link.distance_m, scene.effects.defocus.focus_distance_m)
+    cam, params = scene.camera, scene.effects.defocus
+    assert params is not None  # a defocus hook runs only when the effect is listed
+    c_m = circle_of_confusion_m(cam.focal_length_mm * 1e-3, cam.f_number, scene.link.distance_m, params.focus_distance_m)
     return c_m / (cam.pixel_pitch_um * 1e-6)
 
 
-def lens_kernels(scene) -> tuple[list, float]:
+def lens_kernels(scene: Scene) -> tuple[list, float]:
     """The scene's lens PSF: its kernels and the image scale v_f/v.
 
     The kernels are those of ``blur`` and ``defocus``, in that order (they
@@ -81,7 +90,7 @@ def lens_kernels(scene) -> tuple[list, float]:
     return kernels, scale
 
 
-def lens_psf(setup):
+def lens_psf(setup: SceneSetup):
     """``blur`` and/or ``defocus``: the coverage convolved by every listed kernel.
 
     The image is rescaled by v_f/v (:func:`lens_kernels`) and its light per
@@ -109,7 +118,7 @@ def lens_psf(setup):
     )
 
 
-def emitter_light(setup):
+def emitter_light(setup: SceneSetup):
     """``led_profile`` and ``glare``: where the LED's light falls on the sensor.
 
     The face's radiance profile (:func:`rollsim.optics.emitter.profiled_light`)
@@ -137,7 +146,7 @@ def emitter_light(setup):
     return replace(setup, led_rows=readable_rows(setup))
 
 
-def colour_filter_array(setup):
+def colour_filter_array(setup: SceneSetup):
     """``bayer``: each pixel's electron rates are its own channel's.
 
     The rates are recomputed from the spectra (the monochrome ones use QE at
@@ -146,6 +155,7 @@ def colour_filter_array(setup):
     """
     scene = setup.scene
     cam, params = scene.camera, scene.effects.bayer
+    assert params is not None  # this hook runs only when bayer is listed
     pitch = cam.pixel_pitch_um * 1e-6
     try:
         led_epl = led_electrons_per_lumen(
@@ -163,13 +173,13 @@ def colour_filter_array(setup):
     channels = cfa_channels(params.pattern, setup.shape)
     return replace(
         setup,
-        led_e_per_s=photon_rate_per_pixel(led_sensor_illuminance_lx(scene), pitch, led_epl)[channels],
-        background_e_per_s=photon_rate_per_pixel(background_lx, pitch, ambient_epl)[channels],
-        face_e_per_s=photon_rate_per_pixel(face_lx, pitch, ambient_epl)[channels],
+        led_e_per_s=np.asarray(photon_rate_per_pixel(led_sensor_illuminance_lx(scene), pitch, led_epl))[channels],
+        background_e_per_s=np.asarray(photon_rate_per_pixel(background_lx, pitch, ambient_epl))[channels],
+        face_e_per_s=np.asarray(photon_rate_per_pixel(face_lx, pitch, ambient_epl))[channels],
     )
 
 
-def vignetting(setup):
+def vignetting(setup: SceneSetup):
     """``vignetting``: every rate times cos⁴θ.
 
     The image distance is the lens-to-sensor distance: that of the LED's
@@ -177,6 +187,7 @@ def vignetting(setup):
     """
     scene = setup.scene
     cam, effects = scene.camera, scene.effects
+    assert effects.vignetting is not None  # this hook runs only when vignetting is listed
     focus_m = effects.defocus.focus_distance_m if effects.defocus is not None else scene.link.distance_m
     f = cam.focal_length_mm * 1e-3
     gain = cos4_map(

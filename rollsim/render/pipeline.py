@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterator
+from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
@@ -12,6 +12,9 @@ from rollsim.render.setup import SceneSetup, build_setup
 from rollsim.render.stages import Stage, assemble_stages, prepare_setup
 from rollsim.render.state import FrameState
 from rollsim.render.truth import frame_truth
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 
 @dataclass(frozen=True)
@@ -39,7 +42,7 @@ RENDER_FIXED_BYTES = 32 * 2**20
 _SAMPLE_BYTES = {"gray8": 1, "raw16": 2, "rgb8": 3}
 
 
-def render_memory_bytes(scene, workers: int = 1, frames_held: int = 0) -> int:
+def render_memory_bytes(scene: Scene, workers: int = 1, frames_held: int = 0) -> int:
     """Peak bytes of rendering ``scene`` with ``workers`` processes.
 
     Parameters
@@ -56,7 +59,7 @@ def render_memory_bytes(scene, workers: int = 1, frames_held: int = 0) -> int:
     return workers * per_process + frames_held * pixels * _SAMPLE_BYTES[scene.camera.output]
 
 
-def check_render_memory(scene, workers: int = 1, frames_held: int = 0) -> None:
+def check_render_memory(scene: Scene, workers: int = 1, frames_held: int = 0) -> None:
     """Refuse a frame size (times workers, times frames held) over the memory budget."""
     cam = scene.camera
     what = f"camera.width_px x height_px = {cam.width_px} x {cam.height_px}"
@@ -81,7 +84,7 @@ class RenderPipeline:
         A frame too large for the memory budget (:mod:`rollsim.budget`).
     """
 
-    def __init__(self, scene):
+    def __init__(self, scene: Scene):
         check_render_memory(scene)
         self._init(build_setup(scene))
 
@@ -119,7 +122,7 @@ class RenderPipeline:
         return RenderedFrame(state.index, state.image, truth)
 
 
-def iter_frames(scene, n_frames: int, start: int = 0) -> Iterator[RenderedFrame]:
+def iter_frames(scene: Scene, n_frames: int, start: int = 0) -> Iterator[RenderedFrame]:
     """Render frames ``start … start + n_frames − 1`` one at a time (constant memory)."""
     if n_frames < 0:
         raise ValueError(f"n_frames must be >= 0, got {n_frames}")
@@ -128,7 +131,7 @@ def iter_frames(scene, n_frames: int, start: int = 0) -> Iterator[RenderedFrame]
         yield pipeline.render(index)
 
 
-def render_frames(scene, n_frames: int, start: int = 0) -> tuple[list[np.ndarray], list[dict]]:
+def render_frames(scene: Scene, n_frames: int, start: int = 0) -> tuple[list[np.ndarray], list[dict]]:
     """Render frames into memory, without touching disk.
 
     Returns

@@ -27,9 +27,14 @@ pixels with equal weights, reads fewer (see ``decoder.stripe_row_fraction``).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from rollsim.render.setup import full_scale_electrons
+
+if TYPE_CHECKING:
+    from rollsim.render.setup import SceneSetup
 
 # Contrast (ON–OFF gap over the noise sigma of a row) a row's stripes need to
 # be read; equal to decoder.binarize.MIN_CONTRAST_SIGMA (tested).
@@ -54,7 +59,7 @@ def row_stripe_snr(gap_e: np.ndarray, variance_e2: np.ndarray) -> np.ndarray:
     return np.sqrt(np.sum(np.square(gap_e) / variance_e2, axis=1))
 
 
-def stripe_gap_and_variance(light: np.ndarray, covered: np.ndarray, setup) -> tuple[np.ndarray, np.ndarray]:
+def stripe_gap_and_variance(light: np.ndarray, covered: np.ndarray, setup: SceneSetup) -> tuple[np.ndarray, np.ndarray]:
     """Each pixel's ON–OFF gap and noise variance, electrons.
 
     Parameters
@@ -91,7 +96,7 @@ def stripe_gap_and_variance(light: np.ndarray, covered: np.ndarray, setup) -> tu
     return gap_e, variance
 
 
-def readable_rows(setup) -> tuple[int, int] | None:
+def readable_rows(setup: SceneSetup) -> tuple[int, int] | None:
     """First and last row whose stripes reach :data:`READABLE_CONTRAST_SIGMA`.
 
     Parameters

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -40,7 +40,7 @@ def led_emitting_area_m2(size_m: float, shape: str) -> float:
     return math.pi * (0.5 * size_m) ** 2 if shape == "disk" else size_m**2
 
 
-def led_sensor_illuminance_lx(scene) -> float:
+def led_sensor_illuminance_lx(scene: Scene) -> float:
     """Sensor-plane illuminance of the LED's image at level 1 (ON), on axis."""
     cam, led = scene.camera, scene.led
     m = magnification(cam.focal_length_mm * 1e-3, scene.link.distance_m)
@@ -48,15 +48,15 @@ def led_sensor_illuminance_lx(scene) -> float:
     return sensor_illuminance_lx(luminance, cam.f_number, cam.lens_transmission, m)
 
 
-def led_electron_rate(scene) -> float:
+def led_electron_rate(scene: Scene) -> float:
     """Electrons per second in a pixel fully covered by the LED at level 1 (ON)."""
     cam, led = scene.camera, scene.led
     illuminance = led_sensor_illuminance_lx(scene)
     photons = photon_rate_per_pixel(illuminance, cam.pixel_pitch_um * 1e-6, photons_per_lumen_monochromatic(led.peak_wavelength_nm))
-    return cam.qe * photons
+    return cast(float, cam.qe * photons)  # a scalar: scalar illuminance and photons per lumen
 
 
-def ambient_sensor_illuminances_lx(scene) -> tuple[float, float]:
+def ambient_sensor_illuminances_lx(scene: Scene) -> tuple[float, float]:
     """Sensor-plane illuminance of ambient light, on axis: (background, LED face).
 
     The background is Lambertian with ``environment.background_reflectance``
@@ -76,16 +76,19 @@ def ambient_sensor_illuminances_lx(scene) -> tuple[float, float]:
     return illuminance(env.background_reflectance, m), illuminance(scene.led.face_reflectance, m)
 
 
-def ambient_electron_rates(scene) -> tuple[float, float]:
+def ambient_electron_rates(scene: Scene) -> tuple[float, float]:
     """Electrons per second per pixel from ambient light: (background, LED face)
     (see :func:`ambient_sensor_illuminances_lx`)."""
     cam = scene.camera
     ppl = photons_per_lumen_illuminant(scene.environment.ambient_illuminant)
     pitch = cam.pixel_pitch_um * 1e-6
-    return tuple(cam.qe * photon_rate_per_pixel(e, pitch, ppl) for e in ambient_sensor_illuminances_lx(scene))
+    background_lx, face_lx = ambient_sensor_illuminances_lx(scene)
+    # Scalars here (scalar illuminances and photons per lumen).
+    return (cast(float, cam.qe * photon_rate_per_pixel(background_lx, pitch, ppl)),
+            cast(float, cam.qe * photon_rate_per_pixel(face_lx, pitch, ppl)))
 
 
-def full_scale_electrons(scene) -> float:
+def full_scale_electrons(scene: Scene) -> float:
     """Electrons that fill the ADC range above the black level at the set ISO."""
     cam = scene.camera
     return (2**cam.adc_bits - 1 - cam.black_level_dn) / cam.gain_dn_per_e_at_iso
@@ -131,9 +134,10 @@ class SceneSetup:
     led_centre_px: tuple
     led_size_px: float
     led_rows: tuple | None
-    led_e_per_s: float
-    background_e_per_s: float
-    face_e_per_s: float
+    # Scalars, or per-pixel maps once an effect (bayer, vignetting) makes them vary.
+    led_e_per_s: float | np.ndarray
+    background_e_per_s: float | np.ndarray
+    face_e_per_s: float | np.ndarray
     gain_dn_per_e: float
     prepared: tuple | None = None
     led_light: Footprint | None = None
@@ -149,7 +153,7 @@ def led_rows_from_coverage(row_coverage: np.ndarray) -> tuple[int, int] | None:
     return (int(rows[0]), int(rows[-1])) if rows.size else None
 
 
-def build_setup(scene) -> SceneSetup:
+def build_setup(scene: Scene) -> SceneSetup:
     """Compute a scene's :class:`SceneSetup`."""
     cam = scene.camera
     centre = led_centre_px(scene)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -46,6 +46,9 @@ from rollsim.sensor.frame_jitter import FrameJitter
 from rollsim.gaussian import standard_normal
 from rollsim.sensor.poisson import poisson
 from rollsim.transmitter.led_response import exposure_exact, exposure_sampled
+
+if TYPE_CHECKING:
+    from rollsim.render.setup import SceneSetup
 
 SLOTS = (
     "timing",  # frame start time (frame_jitter)
@@ -83,7 +86,7 @@ def _on_box(rate, fp):
 # ------------------------------------------------------------------ core
 
 
-def frame_start_stage(setup) -> Stage:
+def frame_start_stage(setup: SceneSetup) -> Stage:
     period = setup.timing.frame_period_s
 
     def run(state):
@@ -92,7 +95,7 @@ def frame_start_stage(setup) -> Stage:
     return Stage("frame_start", "timing", run)
 
 
-def led_exposure_stage(setup) -> Stage:
+def led_exposure_stage(setup: SceneSetup) -> Stage:
     timing, waveform = setup.timing, setup.transmitter.waveform
 
     def run(state):
@@ -102,7 +105,7 @@ def led_exposure_stage(setup) -> Stage:
     return Stage("led_exposure", "exposure", run)
 
 
-def led_signal_stage(setup) -> Stage:
+def led_signal_stage(setup: SceneSetup) -> Stage:
     """Mean electrons of the LED: light × rate × ∫ s dt, per row (the light is the
     coverage unless ``led_profile`` or ``glare`` spread it: ``setup.led_light``)."""
     rate, shape = setup.led_e_per_s, setup.shape
@@ -128,7 +131,7 @@ def led_signal_stage(setup) -> Stage:
     return Stage("led_signal", "signal", run)
 
 
-def full_well_stage(setup) -> Stage:
+def full_well_stage(setup: SceneSetup) -> Stage:
     full_well = setup.scene.camera.full_well_e
 
     def run(state):
@@ -137,7 +140,7 @@ def full_well_stage(setup) -> Stage:
     return Stage("full_well", "full_well", run)
 
 
-def adc_stage(setup) -> Stage:
+def adc_stage(setup: SceneSetup) -> Stage:
     cam, gain = setup.scene.camera, setup.gain_dn_per_e
 
     def run(state):
@@ -146,7 +149,7 @@ def adc_stage(setup) -> Stage:
     return Stage("adc", "adc", run)
 
 
-def output_stage(setup) -> Stage:
+def output_stage(setup: SceneSetup) -> Stage:
     cam, effects = setup.scene.camera, setup.scene.effects
     if cam.output == "raw16":
 
@@ -166,6 +169,7 @@ def output_stage(setup) -> Stage:
     if cam.output == "rgb8":
         # The scene loader lets rgb8 through only with the bayer effect.
         bayer, lut = effects.bayer, gray8_lut(cam.black_level_dn, cam.adc_bits)
+        assert bayer is not None
 
         def run(state):
             state.image = demosaic(lut[state.dn], bayer.pattern, bayer.demosaic)
@@ -180,7 +184,7 @@ CORE_BUILDERS = (frame_start_stage, led_exposure_stage, led_signal_stage, full_w
 # ---------------------------------------------------------------- effects
 
 
-def ambient_stage(setup, params) -> Stage:
+def ambient_stage(setup: SceneSetup, params) -> Stage:
     """Ambient light: a lit background, hidden where the LED covers it, and
     ambient light reflected by the LED's face (which raises its OFF level)."""
     t_exp = setup.timing.exposure_s
@@ -207,7 +211,7 @@ def ambient_stage(setup, params) -> Stage:
     return Stage("ambient", "signal", run)
 
 
-def dark_current_stage(setup, params) -> Stage:
+def dark_current_stage(setup: SceneSetup, params) -> Stage:
     dark = setup.scene.camera.dark_current_e_per_s * setup.timing.exposure_s
 
     def run(state):
@@ -216,7 +220,7 @@ def dark_current_stage(setup, params) -> Stage:
     return Stage("dark_current", "dark", run)
 
 
-def shot_noise_stage(setup, params) -> Stage:
+def shot_noise_stage(setup: SceneSetup, params) -> Stage:
     if params.method == "poisson":
         # A mosaic is sampled by CFA phase, where the sampler's fast runs are.
         sampler = poisson if setup.scene.effects.bayer is None else poisson_by_phase
@@ -236,13 +240,13 @@ def shot_noise_stage(setup, params) -> Stage:
     return Stage(f"shot_noise[{params.method}]", "shot", run)
 
 
-def _fixed_map(setup, stream: str) -> np.ndarray:
+def _fixed_map(setup: SceneSetup, stream: str) -> np.ndarray:
     # Fixed-pattern maps depend on the scene seed only (no frame key): the
     # same camera in every frame.
     return named_rng(setup.scene.seed, stream).standard_normal(setup.shape, dtype=np.float32)
 
 
-def prnu_stage(setup, params) -> Stage:
+def prnu_stage(setup: SceneSetup, params) -> Stage:
     gain_map = np.float32(1.0) + np.float32(0.01 * setup.scene.camera.prnu_percent) * _fixed_map(setup, "prnu")
 
     def run(state):
@@ -251,7 +255,7 @@ def prnu_stage(setup, params) -> Stage:
     return Stage("prnu", "fixed_pattern", run)
 
 
-def dsnu_stage(setup, params) -> Stage:
+def dsnu_stage(setup: SceneSetup, params) -> Stage:
     offset_map = np.float32(setup.scene.camera.dsnu_e) * _fixed_map(setup, "dsnu")
 
     def run(state):
@@ -260,7 +264,7 @@ def dsnu_stage(setup, params) -> Stage:
     return Stage("dsnu", "fixed_pattern", run)
 
 
-def read_noise_stage(setup, params) -> Stage:
+def read_noise_stage(setup: SceneSetup, params) -> Stage:
     sigma = np.float32(setup.scene.camera.read_noise_e)
 
     def run(state):
@@ -272,7 +276,7 @@ def read_noise_stage(setup, params) -> Stage:
     return Stage(f"read_noise[{params.method}]", "read", run)
 
 
-def tone_curve_stage(setup, params):
+def tone_curve_stage(setup: SceneSetup, params):
     # The tone curve acts inside the gray8 conversion (before rounding to 8
     # bits); output_stage reads its gamma. No stage of its own.
     if setup.scene.camera.output != "gray8":
@@ -280,7 +284,7 @@ def tone_curve_stage(setup, params):
     return None
 
 
-def led_rise_time_stage(setup, params) -> Stage:
+def led_rise_time_stage(setup: SceneSetup, params) -> Stage:
     """First-order LED response: replaces each row's ∫ s dt by ∫ y dt."""
     timing, waveform, tau = setup.timing, setup.transmitter.waveform, params.tau_us * 1e-6
     if params.method == "exact":
@@ -299,7 +303,7 @@ def led_rise_time_stage(setup, params) -> Stage:
     return Stage(f"led_rise_time[{params.method}]", "exposure", run)
 
 
-def frame_jitter_stage(setup, params) -> Stage:
+def frame_jitter_stage(setup: SceneSetup, params) -> Stage:
     """Frame k starts at k·T_f + ε_k."""
     cam = setup.scene.camera
     error = frame_jitter_error(cam, params)  # the loader refuses such scenes too
@@ -314,7 +318,7 @@ def frame_jitter_stage(setup, params) -> Stage:
     return Stage(f"frame_jitter[{params.mode}]", "timing", run)
 
 
-def motion_stage(setup, params) -> Stage:
+def motion_stage(setup: SceneSetup, params) -> Stage:
     """Hand shake: this frame's LED footprint, each row seeing the LED where it is then."""
     scene, timing = setup.scene, setup.timing
     path = path_from_params(params, scene.seed, timing.frame_period_s)
@@ -341,7 +345,7 @@ def motion_stage(setup, params) -> Stage:
     return Stage(f"motion[{params.mode}]", "geometry", run)
 
 
-def flicker_stage(setup, params) -> Stage:
+def flicker_stage(setup: SceneSetup, params) -> Stage:
     """Mains flicker: each row's mean ambient illuminance over its exposure."""
     timing, mains_hz, phase = setup.timing, setup.scene.environment.mains_hz, math.radians(params.phase_deg)
 
@@ -352,7 +356,7 @@ def flicker_stage(setup, params) -> Stage:
     return Stage("flicker", "exposure", run)
 
 
-def blooming_stage(setup, params) -> Stage:
+def blooming_stage(setup: SceneSetup, params) -> Stage:
     full_well = setup.scene.camera.full_well_e
 
     def run(state):
@@ -361,7 +365,7 @@ def blooming_stage(setup, params) -> Stage:
     return Stage("blooming", "blooming", run)
 
 
-def per_scene_only(setup, params):
+def per_scene_only(setup: SceneSetup, params):
     # The effect's work is all in its per-scene hook (SETUP_HOOKS).
     return None
 
@@ -398,7 +402,7 @@ SETUP_HOOKS = (
 )
 
 
-def prepare_setup(setup):
+def prepare_setup(setup: SceneSetup):
     """Run the per-scene hooks of the listed effects once (see the module docstring).
 
     A setup already prepared is returned as it is.
@@ -414,7 +418,7 @@ def prepare_setup(setup):
     return replace(setup, prepared=tuple(ran))
 
 
-def assemble_stages(setup) -> list[Stage]:
+def assemble_stages(setup: SceneSetup) -> list[Stage]:
     """The stages of a scene, in slot order: the core plus the listed effects only."""
     stages = [builder(setup) for builder in CORE_BUILDERS]
     effects = setup.scene.effects

@@ -23,14 +23,19 @@ Rows of a PHY-SDU spanning [a, b]:
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from rollsim.render.setup import SceneSetup
 
 
 def _bit_strings(bits: np.ndarray) -> list[str]:
     return ["".join("1" if b else "0" for b in row) for row in bits.tolist()]
 
 
-def frame_truth(setup, index: int, start_s: float, led_rows=None) -> dict:
+def frame_truth(setup: SceneSetup, index: int, start_s: float, led_rows=None) -> dict:
     """The truth record of frame ``index`` starting at ``start_s``.
 
     Parameters

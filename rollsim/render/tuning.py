@@ -41,18 +41,23 @@ electron is 22 DN, so a pixel saturates at about 44 electrons in 100 µs.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rollsim.optics import magnification
 from rollsim.render.setup import ambient_electron_rates, full_scale_electrons, led_electron_rate
 
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
-def effective_led_size_mm(scene, roi: float) -> float:
+
+def effective_led_size_mm(scene: Scene, roi: float) -> float:
     """LED size whose thin-lens image spans ``roi`` of the frame's rows."""
     cam = scene.camera
     m = magnification(cam.focal_length_mm * 1e-3, scene.link.distance_m)
     return roi * cam.height_px * cam.pixel_pitch_um * 1e-3 / m
 
 
-def on_level_electrons(scene) -> float:
+def on_level_electrons(scene: Scene) -> float:
     """Mean electrons of a fully covered pixel in a fully ON row (no noise).
 
     The LED at level 1 for the whole exposure, plus ambient light reflected
@@ -63,7 +68,7 @@ def on_level_electrons(scene) -> float:
     return led_electron_rate(scene) * t_exp + face
 
 
-def luminous_intensity_for_on_fraction(scene, fraction: float) -> float:
+def luminous_intensity_for_on_fraction(scene: Scene, fraction: float) -> float:
     """Luminous intensity (cd) that puts a fully ON row at ``fraction`` of full scale.
 
     The LED signal is linear in the luminous intensity; ambient light on the

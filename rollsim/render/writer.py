@@ -14,7 +14,7 @@ import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Iterator, Optional
+from typing import TYPE_CHECKING, Callable, Iterable, Iterator, Optional
 
 import cv2
 
@@ -23,6 +23,9 @@ from rollsim.parallel import chunked, ordered_chunk_map
 from rollsim.protocol.frames import FRAME_NAME  # the name decoders read back
 from rollsim.render.pipeline import RenderPipeline, check_render_memory
 from rollsim.scene import scene_to_yaml
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 # Sensor noise makes frames nearly incompressible: Huffman-only coding after
 # the SUB filter encodes a noisy 1080p frame about 4x faster than zlib's
@@ -57,7 +60,7 @@ def encode_png(image) -> bytes:
 _WORKER_PIPELINE: Optional[RenderPipeline] = None
 
 
-def _init_worker(scene) -> None:
+def _init_worker(scene: Scene) -> None:
     global _WORKER_PIPELINE
     _WORKER_PIPELINE = RenderPipeline(scene)
 
@@ -72,7 +75,7 @@ def _render_chunk(indices: list[int], frames_dir: Path) -> list[dict]:
     return truths
 
 
-def _written_frames(scene, n_frames: int, workers: int, frames_dir: Path) -> Iterator[dict]:
+def _written_frames(scene: Scene, n_frames: int, workers: int, frames_dir: Path) -> Iterator[dict]:
     """Render and write every frame; yield the truth records in frame order."""
     chunks = chunked(range(n_frames), CHUNK_FRAMES)
     yield from ordered_chunk_map(_render_chunk, chunks, workers, frames_dir, initializer=_init_worker, initargs=(scene,))
@@ -84,7 +87,7 @@ def default_workers() -> int:
 
 
 def render_to_dir(
-    scene,
+    scene: Scene,
     out_dir: Path,
     n_frames: int,
     force: bool = False,
@@ -129,7 +132,7 @@ def render_to_dir(
     return RenderSummary(Path(out_dir), n_frames, workers)
 
 
-def render_into(scene, directory: Path, n_frames: int, workers: int, progress: Optional[Callable[[int], None]] = None) -> None:
+def render_into(scene: Scene, directory: Path, n_frames: int, workers: int, progress: Optional[Callable[[int], None]] = None) -> None:
     """Write the frames, truth and resolved scene into an existing, empty ``directory``.
 
     The building block of :func:`render_to_dir`, for callers (``rollsim

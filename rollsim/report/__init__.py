@@ -8,6 +8,8 @@ draws the plots (:mod:`rollsim.report.plots`) into ``plots/`` and writes
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from pathlib import Path
 
 from rollsim.calibrate.mmbp import p_e_text
@@ -20,6 +22,9 @@ from rollsim.report.plots import (
     plot_run_lengths,
     plot_sample_frame,
 )
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 PLOTS_DIR = "plots"
 # Frames searched for the sample frame (the one with the most decodes).
@@ -35,7 +40,7 @@ def sample_frame_index(decoded: list[dict], n_frames: int) -> int:
     return max(range(len(counts)), key=lambda k: (counts[k], -k))
 
 
-def _scene_lines(scene) -> list[str]:
+def _scene_lines(scene: Scene) -> list[str]:
     cam, led, link, env = scene.camera, scene.led, scene.link, scene.environment
     effects = ", ".join(scene.effects.enabled()) or "none"
     return [
@@ -107,7 +112,7 @@ def _timing_lines(timings: dict, n_frames: int) -> list[str]:
     return markdown_table(rows, ("stage", "seconds", "ms per frame"))
 
 
-def write_report(run_dir: Path, scene, evaluation, calibration: dict | None, timings: dict,
+def write_report(run_dir: Path, scene: Scene, evaluation, calibration: dict | None, timings: dict,
                  calibration_error: str | None = None) -> Path:
     """Draw the plots and write ``report.md``; returns its path.
 
@@ -137,7 +142,7 @@ def write_report(run_dir: Path, scene, evaluation, calibration: dict | None, tim
     return report
 
 
-def _draw_plots(run_dir: Path, scene, evaluation, calibration: dict | None, truth: list, decoded: list) -> list:
+def _draw_plots(run_dir: Path, scene: Scene, evaluation, calibration: dict | None, truth: list, decoded: list) -> list:
     """Draw the report's plots under ``run_dir/plots``; ``(title, path)`` pairs in order."""
     from decoder import inspect_frame, read_frame
 
@@ -164,7 +169,7 @@ def _draw_plots(run_dir: Path, scene, evaluation, calibration: dict | None, trut
     return figures
 
 
-def _report_lines(scene, evaluation, calibration: dict | None, timings: dict, calibration_error: str | None,
+def _report_lines(scene: Scene, evaluation, calibration: dict | None, timings: dict, calibration_error: str | None,
                   n_frames: int, figures: list) -> list[str]:
     """The lines of ``report.md``: the scene, time per stage, evaluation, calibration and the plots."""
     lines = [f"# rollsim run: {scene.name}", ""]

@@ -16,10 +16,13 @@ import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, cast, Optional
+from typing import TYPE_CHECKING, Callable, cast, Optional
 
 from rollsim.sweeps.grid import Axis, Cell, parse_values
 from rollsim.sweeps.spec import STAGES, SweepSpec, spec_from_arguments, validate_cells
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 __all__ = ["Axis", "Cell", "STAGES", "SweepResult", "SweepSpec", "parse_values", "run_sweep", "spec_from_arguments",
            "sweep", "validate_cells"]
@@ -208,7 +211,7 @@ def _finish(directory, resolved, spec: SweepSpec, computed: int, submit=None) ->
     return SweepResult(directory.shown, rows, columns, computed, failed)
 
 
-def sweep(scene, grid: Optional[dict] = None, stage: str = "analytic", *, zip: Optional[dict] = None,
+def sweep(scene: Scene, grid: Optional[dict] = None, stage: str = "analytic", *, zip: Optional[dict] = None,
           overrides=(), out=None, client=None, workers: Optional[int] = None, scheduler: Optional[str] = None,
           resume: bool = False, force: bool = False, **options):
     """Run a sweep from Python; the results as a table.

@@ -27,9 +27,12 @@ import math
 import time
 import traceback
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 from rollsim.errors import RollsimError, clip
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 COMMON_COLUMNS = ("cell", "cell_id", "seed", "status", "error", "seconds")
 ANALYTIC_COLUMNS = (
@@ -50,13 +53,13 @@ RUN_COLUMNS = (
 STAGE_COLUMNS = {"analytic": ANALYTIC_COLUMNS, "simulate": SIMULATE_COLUMNS, "run": RUN_COLUMNS}
 
 
-def _packets(scene) -> int:
+def _packets(scene: Scene) -> int:
     from rollsim.protocol import n_packets
 
     return n_packets(scene.link.message_bytes, scene.link.payload_bits)
 
 
-def analytic_row(scene, options: dict) -> dict:
+def analytic_row(scene: Scene, options: dict) -> dict:
     """The analytic figures of one scene (see the module docstring)."""
     from rollsim.channel.prediction import link_prediction
 
@@ -64,7 +67,7 @@ def analytic_row(scene, options: dict) -> dict:
     return {name: prediction[name] for name in ANALYTIC_COLUMNS}
 
 
-def simulate_row(scene, options: dict) -> dict:
+def simulate_row(scene: Scene, options: dict) -> dict:
     """The event simulator's figures of one scene, ``options["runs"]`` runs on ``options["channel"]``."""
     from rollsim.channel.scene_channel import simulate_scene
 
@@ -81,7 +84,7 @@ def simulate_row(scene, options: dict) -> dict:
     return row
 
 
-def run_row(scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
+def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
     """The pixel pipeline's figures of one scene: render and decode in memory, evaluate, fit.
 
     With ``frames_dir``, the frames are also written there as a render
@@ -133,7 +136,7 @@ def run_row(scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
     return row
 
 
-def _write_frames(run, scene, frames_dir: Path) -> None:
+def _write_frames(run, scene: Scene, frames_dir: Path) -> None:
     """Step every frame of ``run`` and write it as a render directory, committed at the end."""
     import json
 

@@ -6,6 +6,8 @@ number, bit), which is the basis of the render's ground truth.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,6 +18,9 @@ from rollsim.transmitter.chips import ConstantChips, DataChips, SquareChips, pre
 from rollsim.transmitter.message import message_from_seed
 from rollsim.transmitter.schedule import Schedule
 from rollsim.transmitter.waveform import Waveform
+
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
 
 PATTERNS = ("data", "square", "on", "off")
 
@@ -183,13 +188,13 @@ def build_transmitter(
     return Transmitter(phy, message, payloads, sdu_chips, schedule, pattern, waveform)
 
 
-def phy_from_scene(scene) -> PhyFormat:
+def phy_from_scene(scene: Scene) -> PhyFormat:
     """The PHY-SDU layout of a scene's link."""
     link = scene.link
     return PhyFormat(link.header_bits, link.payload_bits, link.check, link.line_code)
 
 
-def transmitter_from_scene(scene) -> Transmitter:
+def transmitter_from_scene(scene: Scene) -> Transmitter:
     """The transmitter a validated :class:`rollsim.scene.Scene` describes."""
     link = scene.link
     return build_transmitter(
