@@ -140,7 +140,7 @@ def _load_scene_args(args):
 
 
 def _default_workers() -> int:
-    from rollsim.render.writer import default_workers
+    from rollsim.parallel import default_workers
 
     return default_workers()
 

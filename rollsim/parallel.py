@@ -5,7 +5,8 @@ Rendering and decoding stream many frames through worker processes. Results
 must come back in order (truth lines, decoded records) and only a few chunks
 may be in flight at once, so that memory stays flat however long the run.
 
-Every pool is started by :func:`process_pool`, so that its workers leave
+:func:`default_workers` is the one default worker count. Every pool is
+started by :func:`process_pool`, so that its workers leave
 SIGINT and SIGTERM to the main process, die with it (even under SIGKILL), and
 are killed at once when the command stops early (a signal, an error, a full
 disk): no orphan keeps a core busy.
@@ -14,10 +15,17 @@ disk): no orphan keeps a core busy.
 from __future__ import annotations
 
 import contextlib
+import os
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, Iterator, Optional, Sequence
 
 from rollsim import signals
+
+
+def default_workers(cap: Optional[int] = None) -> int:
+    """Worker processes to use by default: one per core, at most ``cap`` if given."""
+    cores = max(1, os.cpu_count() or 1)
+    return cores if cap is None else min(cap, cores)
 
 
 def chunked(items: Sequence, size: int) -> Iterator[list]:

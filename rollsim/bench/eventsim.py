@@ -28,7 +28,7 @@ import time
 import tracemalloc
 
 from rollsim.channel.channels import CamcomsimChannel
-from rollsim.channel.eventsim import simulate_broadcast
+from rollsim.channel.eventsim import default_event_workers, simulate_broadcast
 from rollsim.outputs import write_file
 from rollsim.transmitter.schedule import Schedule
 
@@ -99,7 +99,7 @@ def bench_eventsim(runs: int = 1000, workers: int | None = None, seed: int = 1, 
         ``mean_goodput_bps``, ``peak_traced_mb_per_worker``,
         ``peak_rss_children_mb``, the ``workload`` and ``cpus``.
     """
-    workers = min(2, os.cpu_count() or 1) if workers is None else workers
+    workers = default_event_workers() if workers is None else workers
     start = time.perf_counter()
     result = _simulate(runs, seed, workers)
     wall = time.perf_counter() - start

@@ -56,7 +56,6 @@ which the message completes. Runs are split into chunks over a process pool.
 from __future__ import annotations
 
 import math
-import os
 from concurrent.futures import as_completed
 from dataclasses import dataclass, field
 from typing import Callable, Optional
@@ -66,7 +65,7 @@ from scipy.special import stdtrit
 
 from rollsim.budget import check_memory
 from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, ChannelModel, _as_count
-from rollsim.parallel import process_pool
+from rollsim.parallel import default_workers, process_pool
 from rollsim.transmitter.schedule import Schedule
 
 __all__ = [
@@ -330,6 +329,11 @@ def _check_channel(channel) -> None:
         raise ValueError(f"channel must be one of the rollsim.channel.channels models, got {channel!r}")
 
 
+def default_event_workers() -> int:
+    """Processes of a broadcast simulation by default: one per core, at most two."""
+    return default_workers(cap=2)
+
+
 def check_broadcast_memory(runs: int, n_packets: int, workers: int, max_emissions: int = DEFAULT_MAX_EMISSIONS,
                            record_loss_streaks: bool = False) -> None:
     """Refuse a broadcast simulation whose arrays exceed the memory budget.
@@ -412,7 +416,7 @@ def simulate_broadcast(
     runs = _as_count(runs, "runs", 1)
     seed = _check_seed(seed)
     max_emissions = _as_count(max_emissions, "max_emissions", 1)
-    workers = min(2, os.cpu_count() or 1) if workers is None else _as_count(workers, "workers", 1)
+    workers = default_event_workers() if workers is None else _as_count(workers, "workers", 1)
     chunk = max(1, math.ceil(runs / (8 * workers))) if chunk_runs is None else _as_count(chunk_runs, "chunk_runs", 1)
     if progress is not None and not callable(progress):
         raise ValueError(f"progress must be callable, got {progress!r}")

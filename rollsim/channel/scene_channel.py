@@ -39,7 +39,6 @@ The ``mmbp`` and ``timed`` channels refuse scenes that need either.
 from __future__ import annotations
 
 import functools
-import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -49,6 +48,7 @@ from rollsim.channel.eventsim import (
     DEFAULT_MAX_EMISSIONS,
     BroadcastResult,
     check_broadcast_memory,
+    default_event_workers,
     simulate_broadcast,
 )
 from rollsim.optics.geometry import led_rows
@@ -370,7 +370,7 @@ def check_runs_first(scene: Scene, runs, workers=None, max_emissions: int = DEFA
     Invalid ``runs`` or ``workers`` are left to the simulation's own checks."""
     if isinstance(runs, int) and runs >= 1 and (workers is None or isinstance(workers, int) and workers >= 1):
         n = packets_of_message(scene.link.message_bytes, scene.link.payload_bits)
-        check_broadcast_memory(runs, n, min(2, os.cpu_count() or 1) if workers is None else workers,
+        check_broadcast_memory(runs, n, default_event_workers() if workers is None else workers,
                                max_emissions, record_loss_streaks)
 
 

@@ -11,7 +11,6 @@ index, so the output is byte-identical for any number of workers.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Iterator, Optional
@@ -19,7 +18,7 @@ from typing import TYPE_CHECKING, Callable, Iterable, Iterator, Optional
 import cv2
 
 from rollsim.outputs import staged_directory
-from rollsim.parallel import chunked, ordered_chunk_map
+from rollsim.parallel import chunked, default_workers, ordered_chunk_map
 from rollsim.protocol.frames import FRAME_NAME  # the name decoders read back
 from rollsim.render.pipeline import RenderPipeline, check_render_memory
 from rollsim.scene import scene_to_yaml
@@ -79,11 +78,6 @@ def _written_frames(scene: Scene, n_frames: int, workers: int, frames_dir: Path)
     """Render and write every frame; yield the truth records in frame order."""
     chunks = chunked(range(n_frames), CHUNK_FRAMES)
     yield from ordered_chunk_map(_render_chunk, chunks, workers, frames_dir, initializer=_init_worker, initargs=(scene,))
-
-
-def default_workers() -> int:
-    """Worker processes to use by default: one per core."""
-    return max(1, os.cpu_count() or 1)
 
 
 def render_to_dir(

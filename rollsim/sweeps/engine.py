@@ -18,12 +18,12 @@ import contextlib
 import importlib.util
 import logging
 import math
-import os
 from typing import Callable, Iterator, Optional
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from rollsim.errors import SystemFailure
+from rollsim.parallel import default_workers
 
 SCHEDULER_TIMEOUT_S = 6
 # Wall time a task should take (seconds) and the work a stage's cell costs,
@@ -59,10 +59,6 @@ class _WorkerSetup(WorkerPlugin):
             signals.init_worker()
         for module in self.modules:
             importlib.import_module(module)
-
-
-def default_workers() -> int:
-    return max(1, os.cpu_count() or 1)
 
 
 def local_cluster(workers: int, **options):
