@@ -11,9 +11,8 @@ accuracy`` several fidelity settings side by side, a frame at a time.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 

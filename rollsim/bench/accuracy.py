@@ -32,8 +32,6 @@ parameters, or the defaults) minus without it, the two rendered in turn.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import csv
 import io
 import json
@@ -42,6 +40,7 @@ import shlex
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 

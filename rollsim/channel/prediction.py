@@ -8,9 +8,8 @@ of RP and RS. No rendering: geometry and closed forms only.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import functools
+from typing import TYPE_CHECKING
 
 from rollsim.channel import analytic
 from rollsim.channel.scene_channel import (

@@ -8,9 +8,8 @@ draws the plots (:mod:`rollsim.report.plots`) into ``plots/`` and writes
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from rollsim.calibrate.mmbp import p_e_text
 from rollsim.text_tables import format_number, format_percent, markdown_table

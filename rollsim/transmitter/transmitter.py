@@ -6,9 +6,8 @@ number, bit), which is the basis of the render's ground truth.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
