@@ -128,13 +128,13 @@ def throughput_bound_note(distance_cm: int, paper_bps: float) -> str:
     gives the ROI each would need (:func:`rollsim.channel.analytic.throughput_bound_bps`).
     """
     from rollsim.channel.analytic import capture_window_s, throughput_bound_bps
-    from rollsim.channel.channels import camcomsim_sdu_slots
+    from rollsim.channel.channels import CAMCOMSIM_SLOT_S, camcomsim_sdu_slots
     from rollsim.channel.scene_channel import sdu_duration_from_scene
     from rollsim.paper.layers import load
 
     frame_s, ifg, bits = 1 / 30, 0.1, 24
     window_s = capture_window_s(frame_s, ifg, ROI_MEASURED[distance_cm])
-    lengths = {"CamComSim's": camcomsim_sdu_slots(5, 19, 8000.0) * 1e-4,
+    lengths = {"CamComSim's": camcomsim_sdu_slots(5, 19, 8000.0) * CAMCOMSIM_SLOT_S,
                "§6.2.2's": sdu_duration_from_scene(load(()))}
     parts = []
     for name, sdu_s in lengths.items():
