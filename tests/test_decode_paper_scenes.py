@@ -10,7 +10,7 @@ Two kinds of scene:
   visible PHY-SDU must be read (99.5 %).
 * ``paper-default`` and ``paper-10cm``: the testbed's LED with its glare
   (one parameter set). The truth counts a PHY-SDU as fully visible in the
-  rows an ideal receiver reads (:mod:`rollsim.render.readable`), which reach
+  rows an ideal receiver reads (:mod:`rollsim.effects.readable`), which reach
   further into the halo than the decoder's (0.89 of the frame against 0.73
   at 10 cm), so the decoder misses PHY-SDUs there, and at 5 cm a few are
   corrupted by the saturated centre (5.4 full scales at its peak). The floors

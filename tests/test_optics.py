@@ -98,7 +98,7 @@ def test_ambient_surfaces_of_equal_luminance_give_equal_irradiance(distance_cm):
     and on where the sensor sits (the working f-number N·(1 + m), the lens
     focused on the LED), not on how far the surface is: the distant
     background and the LED's face, of equal reflectance, give the same."""
-    from rollsim.render.setup import ambient_sensor_illuminances_lx
+    from rollsim.optics.scene_light import ambient_sensor_illuminances_lx
     from rollsim.scene import load_scene
 
     scene = load_scene("paper-default", [f"link.distance_cm={distance_cm}", "led.face_reflectance=0.5",

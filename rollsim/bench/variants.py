@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from rollsim.errors import RollsimError
-from rollsim.render.setup import full_scale_electrons
+from rollsim.sensor.adc import full_scale_electrons
 from rollsim.scene import scene_from_dict
 from rollsim.scene.loader import scene_to_dict
 
@@ -191,8 +191,8 @@ def flat_field_levels_e(scene: Scene, low_e: float = 2.0) -> list[float]:
     and their geometric mean.
     """
     cam = scene.camera
-    adc_e = full_scale_electrons(scene)
-    dark_e = cam.dark_current_e_per_s * cam.exposure_s if scene.effects.dark_current is not None else 0.0
+    adc_e = full_scale_electrons(cam.adc_bits, cam.black_level_dn, cam.gain_dn_per_e_at_iso)
+    dark_e = cam.dark_current_e_per_s * cam.exposure_s if "dark_current" in scene.effects else 0.0
     high = 0.75 * min(cam.full_well_e, adc_e) - dark_e
     if high <= low_e:
         return [high] if high > 0 else []

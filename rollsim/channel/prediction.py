@@ -93,7 +93,7 @@ def link_prediction(scene: Scene) -> dict:
     strategy = link.strategy
     return {
         "led_rows": [int(first), int(last)] if rows else None,
-        "led_rows_from": "geometric image" if scene.effects.glare is None else "stripes above the noise",
+        "led_rows_from": "geometric image" if "glare" not in scene.effects else "stripes above the noise",
         "roi_ratio": rows / cam.height_px,
         "roi_ratio_eq10": analytic.roi_ratio(link.distance_cm * 10.0, led.size_mm, cam.focal_length_mm, sensor_mm),
         "M": slots.M, "N": slots.N, "mn_from": "physics" if scene.channel.M is None else "scene",

@@ -116,24 +116,23 @@ def scene_led_rows(scene: Scene) -> tuple[int, int]:
     The rows its geometric image touches
     (:func:`rollsim.optics.geometry.led_rows`), or, with ``glare``, whose
     halo reaches every row, the rows whose stripes clear the noise
-    (:func:`rollsim.render.readable.readable_rows`, computed once per scene).
+    (:func:`rollsim.effects.readable.readable_rows`, computed once per scene).
     """
-    if scene.effects.glare is None:
+    if "glare" not in scene.effects:
         return led_rows(scene)
     # Keyed on what the rows depend on: a sweep over p_e or the strategy
     # computes them once.
     key = scene.model_copy(update={"name": "", "description": "", "channel": type(scene.channel)(),
                                    "link": type(scene.link)(distance_cm=scene.link.distance_cm)})
-    return _readable_rows(key.model_dump_json())
+    return _readable_rows(type(key), key.model_dump_json())
 
 
 @functools.lru_cache(maxsize=64)
-def _readable_rows(scene_json: str) -> tuple[int, int]:
+def _readable_rows(model: type[Scene], scene_json: str) -> tuple[int, int]:
     from rollsim.render.setup import build_setup  # here: the glare's setup is the renderer's
     from rollsim.render.stages import prepare_setup
-    from rollsim.scene.model import Scene
 
-    rows = prepare_setup(build_setup(Scene.model_validate_json(scene_json))).led_rows
+    rows = prepare_setup(build_setup(model.model_validate_json(scene_json))).led_rows
     return rows if rows else (0, -1)
 
 

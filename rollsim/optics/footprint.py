@@ -15,6 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 EDGE_METHODS = ("exact", "supersample1", "supersample4", "supersample16")
+# A row counts as an LED row when the footprint covers at least this much
+# pixel area in it: a sliver at the tangent of a disk carries no usable light.
+MIN_ROW_COVERAGE_PX = 0.5
 
 
 @dataclass(frozen=True)
@@ -242,3 +245,20 @@ def footprint_per_row(
     if edge != "exact":
         return Footprint(rows, cols, _supersample(xs, row_y - cy, size_px, shape, _SAMPLES_PER_SIDE[edge]))
     return Footprint(rows, cols, _interval_overlap(row_y - cy, half)[:, None] * _interval_overlap(xs[:, :-1], half))
+
+
+def led_rows_from_coverage(row_coverage: np.ndarray) -> tuple[int, int] | None:
+    """First and last row whose covered area reaches :data:`MIN_ROW_COVERAGE_PX`.
+
+    Parameters
+    ----------
+    row_coverage : ndarray, shape (H,)
+        Covered pixel area of each row (:meth:`Footprint.row_coverage`), in pixels.
+
+    Returns
+    -------
+    (int, int) or None
+        None if no row reaches it.
+    """
+    rows = np.flatnonzero(row_coverage >= MIN_ROW_COVERAGE_PX)
+    return (int(rows[0]), int(rows[-1])) if rows.size else None

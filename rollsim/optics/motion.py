@@ -104,7 +104,7 @@ class ReflectedWalkPath:
 
 
 def path_from_params(params, seed: int, frame_period_s: float):
-    """The path a :class:`rollsim.scene.effects.Motion` describes."""
+    """The path a :class:`rollsim.effects.motion.Motion` describes."""
     amplitude = (params.amplitude_x_px, params.amplitude_y_px)
     if params.mode == "sinusoid":
         return SinusoidPath(amplitude, params.frequency_hz, (np.radians(params.phase_x_deg), np.radians(params.phase_y_deg)))

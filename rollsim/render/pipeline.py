@@ -32,11 +32,8 @@ class RenderedFrame:
 # every effect at once; with a quarter's margin. A test
 # (tests/render/test_render_memory.py) keeps it an upper bound.
 RENDER_BYTES_PER_PIXEL = 192
-# The glare's one FFT convolution per scene, on top: its full output spans
-# up to 3H x 3W pixels, held as a few complex64 spectra (~36 B per frame
-# pixel each) and the float32 kernel; measured 253 B/px at 1080p with the
-# LED's image covering 0.6 of the frame (the test keeps it a bound).
-GLARE_BYTES_PER_PIXEL = 192
+# An effect's per-scene work may need more, on top: its
+# ``Effect.setup_bytes_per_pixel`` (the glare's FFT convolution).
 # Tables and buffers that do not scale with the frame (quantile tables, ...).
 RENDER_FIXED_BYTES = 32 * 2**20
 _SAMPLE_BYTES = {"gray8": 1, "raw16": 2, "rgb8": 3}
@@ -54,7 +51,7 @@ def render_memory_bytes(scene: Scene, workers: int = 1, frames_held: int = 0) ->
         Finished images kept in memory (an in-memory render).
     """
     pixels = scene.camera.width_px * scene.camera.height_px
-    per_pixel = RENDER_BYTES_PER_PIXEL + (GLARE_BYTES_PER_PIXEL if scene.effects.glare is not None else 0)
+    per_pixel = RENDER_BYTES_PER_PIXEL + sum(effect.setup_bytes_per_pixel for effect, _ in scene.effects.listed())
     per_process = per_pixel * pixels + RENDER_FIXED_BYTES
     return workers * per_process + frames_held * pixels * _SAMPLE_BYTES[scene.camera.output]
 
@@ -118,7 +115,6 @@ class RenderPipeline:
         """Render frame ``index``: the image and its truth record."""
         state = self.run_stages(index)
         truth = frame_truth(self.setup, state.index, state.start_s, state.led_rows)
-        assert state.image is not None  # the output stage always runs last
         return RenderedFrame(state.index, state.image, truth)
 
 

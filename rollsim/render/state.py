@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -10,12 +10,23 @@ import numpy as np
 from rollsim.seeds import rng as named_rng
 
 if TYPE_CHECKING:
+    from rollsim.optics.footprint import Footprint
     from rollsim.render.setup import SceneSetup
 
 
-@dataclass
+def _not_yet() -> np.ndarray:
+    # An array a core stage has not filled in yet (the core's slots come
+    # first, so a stage never sees one).
+    return np.empty(0)
+
+
+@dataclass(slots=True)
 class FrameState:
     """Arrays of one frame as the stages fill them in.
+
+    Stages meet only through these fields (slotted: a stage that sets any
+    other attribute fails), so an effect's inputs and outputs are declared
+    here, with their types.
 
     Attributes
     ----------
@@ -47,16 +58,16 @@ class FrameState:
     setup: SceneSetup
     index: int
     start_s: float = 0.0
-    led_exposure_s: np.ndarray | None = None
-    electrons: np.ndarray | None = None
-    dn: np.ndarray | None = None
-    image: np.ndarray | None = None
-    footprint: object | None = None
+    led_exposure_s: np.ndarray = field(default_factory=_not_yet)
+    electrons: np.ndarray = field(default_factory=_not_yet)
+    dn: np.ndarray = field(default_factory=_not_yet)
+    image: np.ndarray = field(default_factory=_not_yet)
+    footprint: Footprint | None = None
     led_rows: tuple | None = None
     ambient_row_factor: np.ndarray | None = None
 
     @property
-    def led_footprint(self):
+    def led_footprint(self) -> Footprint:
         """The LED coverage of this frame."""
         return self.setup.footprint if self.footprint is None else self.footprint
 

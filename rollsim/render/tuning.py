@@ -44,7 +44,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from rollsim.optics import magnification
-from rollsim.render.setup import ambient_electron_rates, full_scale_electrons, led_electron_rate
+from rollsim.optics.scene_light import ambient_electron_rates, led_electron_rate
+from rollsim.sensor.adc import full_scale_electrons
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -64,7 +65,7 @@ def on_level_electrons(scene: Scene) -> float:
     by its face when the ``ambient`` effect is on.
     """
     t_exp = scene.camera.exposure_s
-    face = ambient_electron_rates(scene)[1] * t_exp if scene.effects.ambient is not None else 0.0
+    face = ambient_electron_rates(scene)[1] * t_exp if "ambient" in scene.effects else 0.0
     return led_electron_rate(scene) * t_exp + face
 
 
@@ -78,7 +79,8 @@ def luminous_intensity_for_on_fraction(scene: Scene, fraction: float) -> float:
         raise ValueError(f"fraction must be in (0, 1], got {fraction}")
     t_exp = scene.camera.exposure_s
     face = on_level_electrons(scene) - led_electron_rate(scene) * t_exp
-    needed = fraction * full_scale_electrons(scene) - face
+    cam = scene.camera
+    needed = fraction * full_scale_electrons(cam.adc_bits, cam.black_level_dn, cam.gain_dn_per_e_at_iso) - face
     if needed <= 0:
         raise ValueError("ambient light on the LED face alone exceeds that level")
     per_candela = led_electron_rate(scene) * t_exp / scene.led.luminous_intensity_cd

@@ -4,7 +4,7 @@ See the README's "Scene file reference" for every key, its unit and range.
 """
 
 from rollsim.scene.bundled import bundled_scene_dir, bundled_scene_paths, resolve_scene_path
-from rollsim.scene.effects import EFFECT_NAMES, Effects
+from rollsim.scene.effects import EFFECT_NAMES, Effects, EffectsBase
 from rollsim.scene.loader import (
     load_scene,
     parse_overrides,
@@ -13,7 +13,7 @@ from rollsim.scene.loader import (
     scene_to_dict,
     scene_to_yaml,
 )
-from rollsim.scene.model import Camera, Channel, Environment, Led, Link, Render, Scene
+from rollsim.scene.model import Camera, Channel, Environment, Led, Link, Render, Scene, scene_model
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS, CameraPreset
 
 __all__ = [
@@ -23,6 +23,7 @@ __all__ = [
     "DEFAULT_PRESET",
     "EFFECT_NAMES",
     "Effects",
+    "EffectsBase",
     "Environment",
     "Led",
     "Link",
@@ -36,6 +37,7 @@ __all__ = [
     "read_yaml",
     "resolve_scene_path",
     "scene_from_dict",
+    "scene_model",
     "scene_to_dict",
     "scene_to_yaml",
 ]

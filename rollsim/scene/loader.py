@@ -23,12 +23,12 @@ import annotated_types
 import yaml
 from pydantic import BaseModel, ValidationError
 
+from rollsim.effects.base import Effect
 from rollsim.errors import SceneError, clip, short_repr
 from rollsim.protocol import CRC8_MAX_DATA_BITS, min_header_bits, n_packets
 from rollsim.scene.effects import normalise_effects
-from rollsim.scene.model import Scene
+from rollsim.scene.model import Scene, scene_model
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS
-from rollsim.scene.frame_jitter_limits import frame_jitter_error
 
 ROW_TIMING_KEYS = ("row_time_us", "ifg_ratio")
 
@@ -381,9 +381,9 @@ def _unwrap_model(annotation) -> Optional[type[BaseModel]]:
     return None
 
 
-def _model_at(loc: tuple) -> Optional[type[BaseModel]]:
-    """The pydantic model class that holds the field at ``loc``'s parent."""
-    model: type[BaseModel] = Scene
+def _model_at(loc: tuple, root: type[BaseModel]) -> Optional[type[BaseModel]]:
+    """The pydantic model class that holds the field at ``loc``'s parent, from ``root``."""
+    model: type[BaseModel] = root
     for part in loc[:-1]:
         field = model.model_fields.get(part) if isinstance(part, str) else None
         inner = _unwrap_model(field.annotation) if field is not None else None
@@ -397,8 +397,8 @@ def _fmt_number(value) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
-def _range_text(loc: tuple) -> str:
-    model = _model_at(loc)
+def _range_text(loc: tuple, root: type[BaseModel]) -> str:
+    model = _model_at(loc, root)
     if model is None or loc[-1] not in model.model_fields:
         return ""
     low, high, low_open, high_open = "-inf", "inf", True, True
@@ -430,13 +430,13 @@ _TYPE_WORDS = {
 }
 
 
-def _error_line(error: Mapping, source: str) -> str:
+def _error_line(error: Mapping, source: str, root: type[BaseModel] = Scene) -> str:
     loc = tuple(error["loc"])
     path = clip(".".join(clip(str(part), 40) for part in loc), 120)
     kind = error["type"]
     value = error.get("input")
     if kind == "extra_forbidden":
-        model = _model_at(loc)
+        model = _model_at(loc, root)
         valid = list(model.model_fields) if model is not None else []
         close = difflib.get_close_matches(clip(str(loc[-1]), 40), valid, n=1, cutoff=0.0)
         hint = f"; did you mean {'.'.join(str(p) for p in loc[:-1] + (close[0],))!r}?" if close else ""
@@ -444,7 +444,7 @@ def _error_line(error: Mapping, source: str) -> str:
     if kind == "missing":
         return f"{source}: {path}: required key is missing"
     if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
-        return f"{source}: {path} = {_format_value(value)}: out of range, allowed {_range_text(loc)}"
+        return f"{source}: {path} = {_format_value(value)}: out of range, allowed {_range_text(loc, root)}"
     if kind == "literal_error":
         expected = error.get("ctx", {}).get("expected", "")
         return f"{source}: {path} = {_format_value(value)}: must be one of {expected}"
@@ -556,15 +556,9 @@ def consistency_errors(scene: Scene, source: str, relax: Iterable[str] = ()) -> 
         errors.append(f"{source}: channel: give both M and N, or neither (null derives both from the physics)")
     elif channel.M is not None and channel.N is not None and channel.M + channel.N < 1:
         errors.append(f"{source}: channel: M + N must be at least 1")
-    defocus = scene.effects.defocus
-    if defocus is not None and defocus.focus_distance_cm * 10.0 <= cam.focal_length_mm:
-        errors.append(
-            f"{source}: effects.defocus.focus_distance_cm = {_fmt_number(defocus.focus_distance_cm)}: the lens cannot "
-            f"focus nearer than its focal length ({_fmt_number(cam.focal_length_mm)} mm)"
-        )
     if cam.output == "rgb8" and scene.effects.bayer is None:
         errors.append(f"{source}: camera.output = 'rgb8': needs the bayer effect")
-    errors += [f"{source}: {line}" for line in _temporal_effect_errors(scene)]
+    errors += [f"{source}: {line}" for line in scene.effects.errors(scene)]
     errors += [f"{source}: {line}" for line in run_span_errors(scene)]
     return errors
 
@@ -605,19 +599,6 @@ def run_span_errors(scene: Scene) -> list[str]:
     return errors
 
 
-def _temporal_effect_errors(scene: Scene) -> list[str]:
-    effects, errors = scene.effects, []
-    if effects.frame_jitter is not None:
-        errors.append(frame_jitter_error(scene.camera, effects.frame_jitter))
-    if effects.flicker is not None and effects.ambient is None:
-        errors.append("effects.flicker: modulates the ambient light; list the ambient effect too")
-    if effects.motion is not None and (effects.led_profile is not None or effects.glare is not None):
-        # The glare halo is convolved once per scene (a tenth of a second);
-        # a moving LED would need it again for every frame.
-        errors.append("effects.motion: cannot be combined with led_profile or glare yet; list one or the other")
-    return [e for e in errors if e]
-
-
 # ------------------------------------------------------------------ entry points
 
 
@@ -636,7 +617,8 @@ def _set_aside_zero_distance(merged: dict) -> tuple[dict, bool]:
 
 
 def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[str] = (),
-                    values: Optional[Mapping] = None, relax: Iterable[str] = ()) -> Scene:
+                    values: Optional[Mapping] = None, relax: Iterable[str] = (),
+                    registry: Optional[Sequence[Effect]] = None) -> Scene:
     """Validate a scene given as a dict (as read from YAML).
 
     Parameters
@@ -654,6 +636,9 @@ def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[
         does not depend on them (default none: every rule applies).
         :data:`DISTANCE_WITHOUT_LENS` also admits ``link.distance_cm = 0``,
         below the model's range; such a scene must not reach the lens.
+    registry : sequence of Effect, optional
+        The effects a scene may list (default :data:`rollsim.effects.REGISTRY`);
+        the schema of its ``effects`` section is derived from it.
 
     Raises
     ------
@@ -669,10 +654,11 @@ def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[
     zero_distance = False
     if DISTANCE_WITHOUT_LENS in relax:
         merged, zero_distance = _set_aside_zero_distance(merged)
+    model = scene_model(registry)
     try:
-        scene = Scene.model_validate(merged)
+        scene = model.model_validate(merged)
     except ValidationError as exc:
-        raise SceneError([_error_line(err, source) for err in exc.errors()]) from None
+        raise SceneError([_error_line(err, source, model) for err in exc.errors()]) from None
     if zero_distance:
         # model_copy does not validate: the one value the model's range refuses.
         scene = scene.model_copy(update={"link": scene.link.model_copy(update={"distance_cm": 0.0})})
@@ -682,7 +668,8 @@ def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[
     return scene
 
 
-def load_scene(path: Union[str, Path], overrides: Iterable[str] = (), relax: Iterable[str] = ()) -> Scene:
+def load_scene(path: Union[str, Path], overrides: Iterable[str] = (), relax: Iterable[str] = (),
+               registry: Optional[Sequence[Effect]] = None) -> Scene:
     """Load and validate a scene file, or a bundled scene by name.
 
     Parameters
@@ -693,6 +680,8 @@ def load_scene(path: Union[str, Path], overrides: Iterable[str] = (), relax: Ite
         ``KEY=VALUE`` overrides, e.g. ``["camera.exposure_us=50"]``.
     relax : iterable of str, optional
         Rules not to apply, see :func:`scene_from_dict`.
+    registry : sequence of Effect, optional
+        The effects a scene may list, see :func:`scene_from_dict`.
 
     Returns
     -------
@@ -706,7 +695,7 @@ def load_scene(path: Union[str, Path], overrides: Iterable[str] = (), relax: Ite
     from rollsim.scene.bundled import resolve_scene_path
 
     resolved = resolve_scene_path(path)
-    return scene_from_dict(read_yaml(resolved), str(path), overrides, relax=relax)
+    return scene_from_dict(read_yaml(resolved), str(path), overrides, relax=relax, registry=registry)
 
 
 def scene_to_dict(scene: Scene) -> dict:

@@ -7,11 +7,14 @@ the numeric code.
 
 from __future__ import annotations
 
-from typing import Literal, Optional
+import functools
+from typing import Literal, Optional, Sequence
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
-from rollsim.scene.effects import Effects
+from rollsim.effects import REGISTRY
+from rollsim.effects.base import Effect
+from rollsim.scene.effects import Effects, effects_model
 
 
 class _Section(BaseModel):
@@ -157,3 +160,21 @@ class Scene(_Section):
     channel: Channel = Channel()
     render: Render = Render()
     effects: Effects = Effects()
+
+
+def scene_model(registry: Optional[Sequence[Effect]] = None) -> type[Scene]:
+    """The scene model whose ``effects`` section is derived from ``registry``.
+
+    The default registry (:data:`rollsim.effects.REGISTRY`) gives
+    :class:`Scene`; another (e.g. with an effect under development) gives a
+    subclass of it, whose scenes render in this process (they do not pickle
+    to worker processes).
+    """
+    registry = REGISTRY if registry is None else tuple(registry)
+    return Scene if registry == REGISTRY else _scene_model(registry)
+
+
+@functools.lru_cache(maxsize=8)
+def _scene_model(registry: tuple[Effect, ...]) -> type[Scene]:
+    effects = effects_model(registry)
+    return create_model("Scene", __base__=Scene, __module__=__name__, effects=(effects, effects()))

@@ -34,6 +34,20 @@ def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn:
     return dn.astype(np.uint16)
 
 
+def full_scale_electrons(adc_bits: int, black_level_dn: int, gain_dn_per_e: float) -> float:
+    """Electrons that fill the ADC range above the black level: (2^bits − 1 − black) / K.
+
+    Parameters
+    ----------
+    adc_bits : int
+    black_level_dn : int
+    gain_dn_per_e : float
+        Conversion gain K at the set ISO, DN per electron.
+    """
+    as_positive(gain_dn_per_e, "gain_dn_per_e")
+    return (2 ** as_count(adc_bits, "adc_bits") - 1 - as_count(black_level_dn, "black_level_dn")) / gain_dn_per_e
+
+
 def gray8_lut(black_level_dn: int, adc_bits: int, gamma: float | None = None) -> np.ndarray:
     """The gray8 value of every DN, 0 … 2^bits − 1 (see :func:`dn_to_gray8`)."""
     return dn_to_gray8(np.arange(2**adc_bits, dtype=np.uint16), black_level_dn, adc_bits, gamma)

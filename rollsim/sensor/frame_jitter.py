@@ -14,8 +14,8 @@ between the end of one frame's capture (readout plus the last row's
 exposure, a row time to spare) and the next frame's start, so the truncation
 keeps t_{k+1} − t_k ≥ H·t_row + t_exp. A σ whose truncation would cut more
 than the tails beyond ``TRUNCATION_SIGMAS`` standard deviations is refused
-(:mod:`rollsim.scene.frame_jitter_limits`, which the scene loader checks):
-the law would no longer be the normal it claims to be.
+(:func:`max_std_s`, which the ``frame_jitter`` effect checks): the law
+would no longer be the normal it claims to be.
 
 The draws come from one per-scene stream (:mod:`rollsim.frame_sequence`), so
 ε_k depends only on the seed and k.
@@ -23,10 +23,25 @@ The draws come from one per-scene stream (:mod:`rollsim.frame_sequence`), so
 
 from __future__ import annotations
 
-from rollsim.scene.frame_jitter_limits import jitter_bound_s
 from rollsim.frame_sequence import FrameSequence
 
 STREAM = "frame_jitter"
+TRUNCATION_SIGMAS = 4.0
+
+
+def frame_margin_s(frame_period_s: float, readout_s: float, exposure_s: float) -> float:
+    """T_f − (H·t_row + t_exp): how far two frame starts may come closer, in seconds."""
+    return frame_period_s - readout_s - exposure_s
+
+
+def jitter_bound_s(margin_s: float, mode: str) -> float:
+    """Truncation of ε_k (``independent``) or of each step (``random_walk``), in seconds."""
+    return 0.5 * margin_s if mode == "independent" else margin_s
+
+
+def max_std_s(margin_s: float, mode: str) -> float:
+    """Largest σ allowed for a margin: the bound is at least :data:`TRUNCATION_SIGMAS` σ, in seconds."""
+    return max(0.0, jitter_bound_s(margin_s, mode) / TRUNCATION_SIGMAS)
 
 
 class FrameJitter:

@@ -163,16 +163,17 @@ def test_led_rows_shrink_with_distance_under_glare():
     assert counts[0] == 1080 and all(a > b for a, b in zip(counts, counts[1:])) and counts[-1] > 0
 
 
-def test_motion_with_glare_is_refused_at_load():
-    with pytest.raises(SceneError, match="effects.motion: cannot be combined with led_profile or glare"):
-        load_scene("effect-motion", ["effects.glare={}"])
+@pytest.mark.parametrize("other", ["glare", "led_profile"])
+def test_motion_with_light_computed_once_per_scene_is_refused_at_load(other):
+    with pytest.raises(SceneError, match=f"effects.motion: cannot be combined with {other} yet"):
+        load_scene("effect-motion", [f"effects.{other}={{}}"])
 
 
 # ------------------------------------------------------------ readable rows
 
 
 def test_row_stripe_snr_of_uniform_rows_is_the_closed_form():
-    from rollsim.render.readable import row_stripe_snr
+    from rollsim.effects.readable import row_stripe_snr
 
     gap = np.full((3, 400), 2.0)
     gap[1] = 0.0
@@ -186,7 +187,7 @@ def test_row_stripe_snr_of_uniform_rows_is_the_closed_form():
 
 def test_readable_contrast_is_the_decoders():
     from decoder.binarize import MIN_CONTRAST_SIGMA
-    from rollsim.render.readable import READABLE_CONTRAST_SIGMA
+    from rollsim.effects.readable import READABLE_CONTRAST_SIGMA
 
     assert READABLE_CONTRAST_SIGMA == MIN_CONTRAST_SIGMA
 

@@ -6,7 +6,7 @@ import pytest
 from rollsim.errors import SceneError
 from rollsim.render import RenderPipeline
 from rollsim.seeds import rng as named_rng
-from rollsim.scene.frame_jitter_limits import frame_margin_s, jitter_bound_s, max_std_s
+from rollsim.sensor.frame_jitter import frame_margin_s, jitter_bound_s, max_std_s
 from rollsim.sensor.frame_jitter import FrameJitter
 from rollsim.gaussian import truncated_normal
 

@@ -17,8 +17,8 @@ from rollsim.optics.psf import (
     gaussian_kernel_1d,
 )
 from rollsim.render import RenderPipeline
-from rollsim.render.hooks import defocus_diameter_px
-from rollsim.render.setup import led_rows_from_coverage
+from rollsim.effects.defocus import defocus_diameter_px
+from rollsim.optics.footprint import led_rows_from_coverage
 
 from conftest import make_scene
 
@@ -122,7 +122,7 @@ def test_circle_of_confusion_by_similar_triangles():
     assert circle_of_confusion_m(f, n, d, d) == 0.0
     assert defocus_image_scale(f, d, d_f) == pytest.approx(v_f / v, rel=1e-12)
     scene = make_scene(effects={"defocus": {"focus_distance_cm": 15.0}}, link={"distance_cm": 10.0})
-    assert defocus_diameter_px(scene) == pytest.approx(by_triangles / 1.4e-6, rel=1e-12)
+    assert defocus_diameter_px(scene, scene.effects.defocus) == pytest.approx(by_triangles / 1.4e-6, rel=1e-12)
 
 
 def test_defocus_conserves_the_led_light():

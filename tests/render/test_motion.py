@@ -8,7 +8,7 @@ import pytest
 from rollsim.optics.footprint import footprint
 from rollsim.optics.motion import ReflectedWalkPath, SinusoidPath, fold, motion_footprint
 from rollsim.render import RenderPipeline
-from rollsim.render.setup import led_rows_from_coverage
+from rollsim.optics.footprint import led_rows_from_coverage
 
 from conftest import make_scene
 

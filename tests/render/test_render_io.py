@@ -96,16 +96,14 @@ def test_bad_scene_writes_nothing(tmp_path, capsys):
     assert not out.exists() and not list(tmp_path.iterdir())
 
 
-def test_unavailable_effect_is_a_clear_error(tmp_path, capsys, monkeypatch):
-    from rollsim.render import stages
-
-    # A registered name whose builder is missing (as before an effect lands).
-    monkeypatch.delitem(stages.EFFECT_BUILDERS, "motion")
+def test_an_effect_refusing_its_scene_is_a_clear_error(tmp_path, capsys):
+    # A defocus whose blur circle is wider than rollsim convolves: the
+    # effect's per-scene hook refuses it, before anything is written.
     out = tmp_path / "run"
-    assert main(["render", "paper-geometric", "--frames", "1", "--out", str(out), "--set", "effects.motion=null", *SMALL]) == 2
-    assert capsys.readouterr().err.splitlines() == [
-        "rollsim: error: effects.motion: this effect is not available yet in this version of rollsim"
-    ]
+    args = ["render", "paper-default", "--frames", "1", "--out", str(out), "--set", "effects.defocus.focus_distance_cm=0.5"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("rollsim: error: effects.defocus.focus_distance_cm = 0.5: the circle of confusion")
     assert not out.exists()
 
 

@@ -20,7 +20,8 @@ its step squared).
 Noise effects not listed add nothing (an effect is simulated only when a
 scene calls for it; quantisation always applies).
 
-These rows are the frame's ground truth (which PHY-SDUs are fully visible)
+The ``glare`` effect sets a scene's LED rows by this rule. These rows are
+the frame's ground truth (which PHY-SDUs are fully visible)
 and give the physics' M and N; a real decoder, which averages a region's
 pixels with equal weights, reads fewer (see ``decoder.stripe_row_fraction``).
 """
@@ -31,7 +32,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rollsim.render.setup import full_scale_electrons
+from rollsim.sensor.adc import full_scale_electrons
 
 if TYPE_CHECKING:
     from rollsim.render.setup import SceneSetup
@@ -77,21 +78,22 @@ def stripe_gap_and_variance(light: np.ndarray, covered: np.ndarray, setup: Scene
     gap_e, variance_e2 : ndarray of float64, shape (H, W)
     """
     scene = setup.scene
-    cam, effects = scene.camera, scene.effects
+    cam, listed = scene.camera, set(scene.effects.enabled())
     exposure_s = cam.exposure_s
     off_e = np.zeros(light.shape)
-    if effects.ambient is not None:
+    # Which noise sources the frame has is which effects are listed.
+    if "ambient" in listed:
         off_e += (setup.background_e_per_s * (1.0 - covered) + setup.face_e_per_s * covered) * exposure_s
-    if effects.dark_current is not None:
+    if "dark_current" in listed:
         off_e += cam.dark_current_e_per_s * exposure_s
-    adc_e = full_scale_electrons(scene)
+    adc_e = full_scale_electrons(cam.adc_bits, cam.black_level_dn, setup.gain_dn_per_e)
     gap_e = np.clip(np.minimum(light * (setup.led_e_per_s * exposure_s), min(cam.full_well_e, adc_e) - off_e), 0.0, None)
     # The 8-bit frame's step, in electrons: full scale / 255, at least one DN.
     step_e = max(1.0 / setup.gain_dn_per_e, adc_e / 255.0)
     variance = np.full(light.shape, step_e**2 / 12.0)
-    if effects.shot_noise is not None:
+    if "shot_noise" in listed:
         variance += off_e + 0.5 * gap_e
-    if effects.read_noise is not None:
+    if "read_noise" in listed:
         variance += cam.read_noise_e**2
     return gap_e, variance
 

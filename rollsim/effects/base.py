@@ -1,0 +1,174 @@
+"""What an effect is: its parameters, its slot, its per-scene setup and its per-frame stage.
+
+An effect is one module of :mod:`rollsim.effects` that defines an
+:class:`Effect`: the pydantic model of its parameters (the keys a scene
+gives under ``effects.<name>``), and what it does to the render:
+
+* ``prepare``: a per-scene hook ``(setup, params) -> setup``, run once
+  before any stage is built, for an effect that changes what every frame
+  shares (a lens PSF reshapes the LED's coverage; vignetting makes the
+  electron rates per-pixel maps);
+* ``build_stage``: ``(setup, params) -> run``, a function of one frame's
+  :class:`~rollsim.render.state.FrameState`, run in the effect's ``slot``
+  (:data:`SLOTS`, the EMVA 1288 order for the sensor);
+* ``check``: ``(scene, params) -> str or None``, why a scene cannot have
+  the effect (the scene loader reports it as a line naming the field).
+
+Effects meet only through declared fields: a hook writes fields of
+:class:`~rollsim.render.setup.SceneSetup` and a stage reads and writes
+fields of :class:`~rollsim.render.state.FrameState` (a slotted dataclass, so
+an undeclared field is an error), never another effect's settings. ``reads``
+and ``writes`` name those fields (``"state.electrons"``,
+``"setup.lens_kernels"``); a test checks that they exist.
+
+The scene schema and the render pipeline are both derived from the one list
+:data:`rollsim.effects.REGISTRY`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Callable, Optional
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict
+
+from rollsim.seeds import rng as named_rng
+
+if TYPE_CHECKING:
+    from rollsim.optics.footprint import Footprint
+    from rollsim.render.setup import SceneSetup
+    from rollsim.render.state import FrameState
+    from rollsim.scene.model import Scene
+
+SLOTS = (
+    "timing",  # frame start time (frame_jitter)
+    "geometry",  # this frame's LED footprint (motion)
+    "exposure",  # per-row integral of the LED waveform (led_rise_time) and ambient light (flicker)
+    "signal",  # mean photo-electrons: LED, ambient light
+    "dark",  # dark current
+    "shot",  # photon shot noise
+    "fixed_pattern",  # PRNU gain map, DSNU offset map
+    "blooming",  # charge above full well spills along columns
+    "full_well",  # clip to [0, full well]
+    "read",  # read noise
+    "adc",  # conversion gain, black level, quantisation
+    "output",  # gray8 / raw16
+)
+
+
+class EffectParams(BaseModel):
+    """Base of every effect's parameters: frozen, strict, no unknown keys."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+
+class NoParams(EffectParams):
+    """An effect configured entirely by the camera, LED and environment keys."""
+
+
+StageRun = Callable[["FrameState"], None]
+
+
+@dataclass(frozen=True)
+class Stage:
+    """A named step of the pipeline, bound to its per-scene constants."""
+
+    name: str
+    slot: str
+    run: StageRun
+
+    def __call__(self, state: FrameState) -> None:
+        self.run(state)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One effect of the closed registry.
+
+    Attributes
+    ----------
+    name : str
+        The key under a scene's ``effects``.
+    params : type of EffectParams
+        Its parameters; the class docstring documents them, with units.
+    slot : str or None
+        Where its stage runs (one of :data:`SLOTS`); None for an effect with
+        no per-frame stage.
+    build_stage : callable or None
+        ``(setup, params) -> run``: the per-frame work, bound once per scene.
+    prepare : callable or None
+        ``(setup, params) -> setup``: the per-scene hook.
+    check : callable or None
+        ``(scene, params) -> str or None``: why the scene cannot have it.
+    variant : str or None
+        The parameter whose value names the stage's variant
+        (``shot_noise[poisson]``).
+    requires, excludes : tuple of (str, str)
+        Effects it needs listed, or cannot be listed with, each with the reason.
+    reads, writes : tuple of str
+        The ``state.*`` and ``setup.*`` fields it reads and writes.
+    setup_bytes_per_pixel : int
+        Peak memory of its per-scene work beyond the render's own, in bytes
+        per frame pixel (see :mod:`rollsim.render.pipeline`).
+    """
+
+    name: str
+    params: type[EffectParams]
+    slot: Optional[str] = None
+    build_stage: Optional[Callable[[Any, Any], StageRun]] = None
+    prepare: Optional[Callable[[Any, Any], Any]] = None
+    check: Optional[Callable[[Any, Any], Optional[str]]] = None
+    variant: Optional[str] = None
+    requires: tuple[tuple[str, str], ...] = ()
+    excludes: tuple[tuple[str, str], ...] = ()
+    reads: tuple[str, ...] = ()
+    writes: tuple[str, ...] = ()
+    setup_bytes_per_pixel: int = 0
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise ValueError(f"effect name {self.name!r} must be a Python identifier (it is a scene key)")
+        if not (isinstance(self.params, type) and issubclass(self.params, EffectParams)):
+            raise ValueError(f"effect {self.name}: params must be a subclass of EffectParams")
+        if (self.slot is None) != (self.build_stage is None):
+            raise ValueError(f"effect {self.name}: a stage needs a slot and a slot needs a stage")
+        if self.slot is not None and self.slot not in SLOTS:
+            raise ValueError(f"effect {self.name}: slot {self.slot!r} is not one of {', '.join(SLOTS)}")
+        if self.slot is None and self.prepare is None:
+            raise ValueError(f"effect {self.name}: does nothing (no stage and no per-scene hook)")
+        if self.variant is not None and self.variant not in self.params.model_fields:
+            raise ValueError(f"effect {self.name}: variant {self.variant!r} is not one of its parameters")
+
+    def stage_name(self, params: EffectParams) -> str:
+        """The stage's name in the pipeline: the effect's, with its variant."""
+        return self.name if self.variant is None else f"{self.name}[{getattr(params, self.variant)}]"
+
+    def stage(self, setup: SceneSetup, params: EffectParams) -> Optional[Stage]:
+        """Its stage bound to ``setup``, or None for a per-scene-only effect."""
+        if self.build_stage is None or self.slot is None:
+            return None
+        return Stage(self.stage_name(params), self.slot, self.build_stage(setup, params))
+
+    def errors(self, scene: Scene, params: EffectParams, listed: frozenset) -> list[str]:
+        """Why ``scene`` cannot have this effect: its check, requirements and exclusions."""
+        errors = [f"effects.{self.name}: {why}; list the {other} effect too"
+                  for other, why in self.requires if other not in listed]
+        errors += [f"effects.{self.name}: {why}; list one or the other"
+                   for other, why in self.excludes if other in listed]
+        found = self.check(scene, params) if self.check is not None else None
+        return errors + ([found] if found else [])
+
+
+def on_box(rate: float | np.ndarray, fp: Footprint) -> float | np.ndarray:
+    """A rate on a footprint's bounding box: a float as is, an (H, W) map sliced."""
+    return rate[fp.rows, fp.cols] if isinstance(rate, np.ndarray) and rate.ndim else rate
+
+
+def fixed_pattern_map(setup: SceneSetup, stream: str) -> np.ndarray:
+    """A standard normal map of the frame's shape, the same in every frame.
+
+    Fixed-pattern maps depend on the scene seed only (no frame key): the
+    same camera in every frame.
+    """
+    return named_rng(setup.scene.seed, stream).standard_normal(setup.shape, dtype=np.float32)
