@@ -183,3 +183,17 @@ def test_square_pattern_is_a_chip_rate_square_wave():
 def test_message_from_seed_is_deterministic():
     assert message_from_seed(3, 20) == message_from_seed(3, 20)
     assert message_from_seed(3, 20) != message_from_seed(4, 20)
+
+
+def test_every_chip_source_is_a_chip_source():
+    from rollsim.transmitter.chips import ChipSource, ConstantChips, DataChips, SquareChips
+
+    schedule = Schedule("rp", 2, 1)
+    sources = [ConstantChips(1), ConstantChips(0), SquareChips(), DataChips(schedule, np.array([[1, 0, 1], [0, 0, 1]]))]
+    assert all(isinstance(source, ChipSource) for source in sources)
+    assert not isinstance(object(), ChipSource)
+    # ones_before counts the ON chips that values gives, over any range.
+    chips = np.arange(-12, 13)
+    for source in sources:
+        counted = np.concatenate([[0], np.cumsum(source.values(chips).astype(np.int64))])
+        assert np.array_equal(source.ones_before(np.append(chips, 13)) - source.ones_before(-12), counted)

@@ -15,10 +15,24 @@ pattern here is periodic, so the past is defined):
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from rollsim.transmitter.schedule import Schedule
+
+
+@runtime_checkable
+class ChipSource(Protocol):
+    """What a waveform needs of its chips (see the module docstring)."""
+
+    def values(self, chip) -> np.ndarray:
+        """The chip sent at each index, 1 (ON) or 0 (OFF), as uint8."""
+        ...
+
+    def ones_before(self, chip) -> np.ndarray:
+        """ON chips in [0, c) (minus those in [c, 0) for c < 0), as int64."""
+        ...
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ import numpy as np
 
 from rollsim.budget import check_memory
 from rollsim.protocol import PhyFormat, n_packets, packetize
-from rollsim.transmitter.chips import ConstantChips, DataChips, SquareChips, prefix_dtype
+from rollsim.transmitter.chips import ChipSource, ConstantChips, DataChips, SquareChips, prefix_dtype
 from rollsim.transmitter.message import message_from_seed
 from rollsim.transmitter.schedule import Schedule
 from rollsim.transmitter.waveform import Waveform
@@ -94,8 +94,9 @@ class Transmitter:
         """
         chip = self.waveform.chip_index(t_s)
         out = {"chip": chip, "level": self.waveform.chips.values(chip)}
-        if self.sends_data:
-            tx, offset = self.waveform.chips.split(chip)
+        chips = self.waveform.chips
+        if self.sends_data and isinstance(chips, DataChips):
+            tx, offset = chips.split(chip)
             out.update(
                 tx=tx,
                 sequence=self.schedule.sequence_numbers(tx),
@@ -177,12 +178,13 @@ def build_transmitter(
     payloads = packetize(message, phy.payload_bits)
     schedule = Schedule(strategy, packets, repeats)
     sdu_chips = _encode_blocks(phy, payloads)
-    chips = {
-        "data": lambda: DataChips(schedule, sdu_chips),
-        "square": SquareChips,
-        "on": lambda: ConstantChips(1),
-        "off": lambda: ConstantChips(0),
-    }[pattern]()
+    chips: ChipSource
+    if pattern == "data":
+        chips = DataChips(schedule, sdu_chips)
+    elif pattern == "square":
+        chips = SquareChips()
+    else:
+        chips = ConstantChips(1 if pattern == "on" else 0)
     waveform = Waveform(chips, clock_hz, start_s, 1.0, off_level)
     return Transmitter(phy, message, payloads, sdu_chips, schedule, pattern, waveform)
 

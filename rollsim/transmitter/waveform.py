@@ -17,11 +17,14 @@ hours into a run, where u alone would lose ten digits: a 100 µs window keeps
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rollsim.clock import chip_position
+
+if TYPE_CHECKING:
+    from rollsim.transmitter.chips import ChipSource
 
 
 @dataclass(frozen=True)
@@ -30,7 +33,7 @@ class Waveform:
 
     Parameters
     ----------
-    chips : chip source
+    chips : ChipSource
         See :mod:`rollsim.transmitter.chips`.
     clock_hz : float
         Chip rate f in Hz.
@@ -40,7 +43,7 @@ class Waveform:
         Relative LED intensity of ON and OFF chips.
     """
 
-    chips: Any
+    chips: ChipSource
     clock_hz: float
     start_s: float = 0.0
     on_level: float = 1.0
