@@ -10,8 +10,7 @@ The order is the order of work: the per-scene hooks run in it, and stages
 that share a slot run in it. ``bayer`` recomputes the electron rates from
 spectra, so it comes before the hooks that scale them; the lens effects
 (``blur``, ``defocus``) set the footprint that ``led_profile`` and
-``glare`` shape, in that order; ``prnu``'s gain map does not scale
-``dsnu``'s offsets. A test checks that a hook that sets a field without
+``glare`` shape, in that order. A test checks that a hook that sets a field without
 reading it comes before every hook that reads the field.
 """
 
@@ -20,6 +19,7 @@ from rollsim.effects import (
     bayer,
     blooming,
     blur,
+    column_fpn,
     dark_current,
     defocus,
     dsnu,
@@ -31,6 +31,7 @@ from rollsim.effects import (
     motion,
     prnu,
     read_noise,
+    row_noise,
     shot_noise,
     tone_curve,
     vignetting,
@@ -41,9 +42,11 @@ REGISTRY: tuple[Effect, ...] = (
     ambient.EFFECT,
     shot_noise.EFFECT,
     read_noise.EFFECT,
+    row_noise.EFFECT,
     dark_current.EFFECT,
     prnu.EFFECT,
     dsnu.EFFECT,
+    column_fpn.EFFECT,
     tone_curve.EFFECT,
     bayer.EFFECT,
     blur.EFFECT,

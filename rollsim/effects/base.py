@@ -46,12 +46,13 @@ SLOTS = (
     "geometry",  # this frame's LED footprint (motion)
     "exposure",  # per-row integral of the LED waveform (led_rise_time) and ambient light (flicker)
     "signal",  # mean photo-electrons: LED, ambient light
-    "dark",  # dark current
-    "shot",  # photon shot noise
-    "fixed_pattern",  # PRNU gain map, DSNU offset map
+    "photo_response",  # PRNU: each pixel's gain on its photo-electrons
+    "dark",  # dark current, with its own non-uniformity and hot pixels
+    "shot",  # shot noise of the photo- and dark electrons
     "blooming",  # charge above full well spills along columns
     "full_well",  # clip to [0, full well]
-    "read",  # read noise
+    "offset",  # fixed offsets of the dark signal, which survive the clip: DSNU, column pattern
+    "read",  # read noise, row noise
     "adc",  # conversion gain, black level, quantisation
     "output",  # gray8 / raw16
 )
@@ -165,10 +166,19 @@ def on_box(rate: float | np.ndarray, fp: Footprint) -> float | np.ndarray:
     return rate[fp.rows, fp.cols] if isinstance(rate, np.ndarray) and rate.ndim else rate
 
 
-def fixed_pattern_map(setup: SceneSetup, stream: str) -> np.ndarray:
-    """A standard normal map of the frame's shape, the same in every frame.
+def identity_seed(scene: Scene) -> int:
+    """The seed of the camera's fixed patterns: ``camera.identity_seed``, or the scene's seed."""
+    seed = scene.camera.identity_seed
+    return scene.seed if seed is None else seed
 
-    Fixed-pattern maps depend on the scene seed only (no frame key): the
-    same camera in every frame.
-    """
-    return named_rng(setup.scene.seed, stream).standard_normal(setup.shape, dtype=np.float32)
+
+def fixed_pattern_rng(setup: SceneSetup, stream: str) -> np.random.Generator:
+    """The generator of a fixed pattern: the camera's identity and the stream
+    name only (no frame key), so the same camera in every frame and every
+    render, whatever the noise seed."""
+    return named_rng(identity_seed(setup.scene), stream)
+
+
+def fixed_pattern_map(setup: SceneSetup, stream: str) -> np.ndarray:
+    """A standard normal map of the frame's shape, float32, the same in every frame (see :func:`fixed_pattern_rng`)."""
+    return fixed_pattern_rng(setup, stream).standard_normal(setup.shape, dtype=np.float32)

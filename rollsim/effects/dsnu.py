@@ -1,8 +1,11 @@
-"""``dsnu``: dark-signal non-uniformity, a fixed offset map.
+"""``dsnu``: dark-signal non-uniformity of the offset, a fixed offset map.
 
 Each pixel is offset by ``camera.dsnu_e``·z electrons, z a standard normal
-of the scene seed, the same in every frame. Registered after ``prnu``,
-which shares its slot: the gain map does not scale the offset.
+of the camera's identity, the same in every frame. EMVA 1288 counts it in
+the dark signal, as an offset: it is added after the full-well clip (whose
+floor at 0 e⁻ would otherwise cut its negative half) and reaches the ADC,
+where the black level carries it. The dark current's own non-uniformity,
+which grows with exposure, is the ``dark_current`` effect's.
 """
 
 from __future__ import annotations
@@ -27,4 +30,4 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
     return run
 
 
-EFFECT = Effect(name="dsnu", params=NoParams, slot="fixed_pattern", build_stage=build_stage, writes=("state.electrons",))
+EFFECT = Effect(name="dsnu", params=NoParams, slot="offset", build_stage=build_stage, writes=("state.electrons",))

@@ -1,7 +1,10 @@
 """``prnu``: photo-response non-uniformity, a fixed gain map.
 
 Each pixel's gain is 1 + (``camera.prnu_percent`` / 100)·z with z a standard
-normal of the scene seed, the same in every frame.
+normal of the camera's identity, the same in every frame. It scales the
+mean photo-electrons, before dark current and shot noise: a pixel's
+response to light varies, its dark current has a non-uniformity of its
+own (``dark_current``), and the shot noise is that of the scaled mean.
 """
 
 from __future__ import annotations
@@ -26,4 +29,4 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
     return run
 
 
-EFFECT = Effect(name="prnu", params=NoParams, slot="fixed_pattern", build_stage=build_stage, writes=("state.electrons",))
+EFFECT = Effect(name="prnu", params=NoParams, slot="photo_response", build_stage=build_stage, writes=("state.electrons",))

@@ -49,6 +49,10 @@ class Camera(_Section):
     base_iso: float = Field(gt=0, le=1e7)
     gain_dn_per_e: float = Field(gt=0, le=1e4)
     output: Literal["gray8", "raw16", "rgb8"] = "gray8"
+    # The camera's identity: seeds its fixed patterns (PRNU, DSNU, dark-signal
+    # map, hot pixels, column pattern); the scene's seed then seeds only the
+    # temporal noise. None: the scene's seed seeds both.
+    identity_seed: Optional[int] = Field(None, ge=0, le=2**63 - 1)
 
     @property
     def frame_period_s(self) -> float:

@@ -28,6 +28,7 @@ EFFECT_STAGES = {
     "motion": "motion[random_walk]",
     "flicker": "flicker",
     "blooming": "blooming",
+    "row_noise": "row_noise",
     "blur": None,
     "defocus": None,
     "vignetting": None,
@@ -131,7 +132,7 @@ def test_every_effect_at_once_is_deterministic_and_decodes(tmp_path):
                  "effects.defocus.focus_distance_cm=4.6", "effects.vignetting=null", "effects.dark_current=null",
                  "effects.prnu=null", "effects.dsnu=null", "effects.led_rise_time.tau_us=5",
                  "effects.frame_jitter.std_us=30", "effects.motion.amplitude_y_px=6", "effects.flicker.depth=0.3",
-                 "effects.blooming=null"]
+                 "effects.blooming=null", "effects.row_noise=null", "effects.column_fpn=null"]
     scene = load_scene("effect-bayer", overrides)
     assert set(scene.effects.enabled()) == set(EFFECT_NAMES) - {"tone_curve", "led_profile", "glare"}
     images, truth = render_frames(scene, 8)
