@@ -8,6 +8,7 @@ import numpy as np
 
 from rollsim.budget import check_memory
 from rollsim.channel.prediction import link_prediction
+from rollsim.optics.scene_light import signal_budget
 from rollsim.protocol import camcomsim_sdu_duration_s, last_payload_bits
 from rollsim.transmitter import transmitter_from_scene
 
@@ -87,6 +88,7 @@ def describe_scene(scene: Scene, emissions: int = 12) -> dict:
             "on_fraction": float(ones[1] - ones[0]) / max(1, round_emissions * phy.sdu_chips),
         },
         "link": link_prediction(scene),
+        "signal": signal_budget(scene),
         "effects": list(scene.effects.enabled()),
     }
 
@@ -114,6 +116,7 @@ def format_description(info: dict) -> str:
         f"ON fraction {wave['on_fraction']:.4f}",
         f"           chips of tx 0: {wave['first_sdu_chips']}",
         *_link_lines(info["link"], info["camera"]["height_px"]),
+        *_signal_lines(info["signal"]),
         f"effects    {', '.join(info['effects']) or '(none)'}",
     ]
     return "\n".join(lines)
@@ -129,4 +132,19 @@ def _link_lines(link: dict, height_px: int) -> list[str]:
         f"{link['capture_window_s'] * 1e3:.4g} ms), p_e = {link['p_e']:g}",
         f"predicted  {link['strategy'].upper()} r={link['repeats']}, {link['n_packets']} packets: p0 = {link['p0']:.4g}, "
         f"P(all packets in one round) = {link['p_message']:.4g}, expected goodput {link['goodput_bps']:.4g} bit/s",
+    ]
+
+
+def _signal_lines(signal: dict) -> list[str]:
+    photons, electrons = signal["photons"], signal["electrons"]
+
+    def level(key: str) -> str:
+        return f"{photons[key]:.4g} photons, {electrons[key]:.4g} e-"
+
+    clipped = f", clipped at {signal['recordable_e']:.4g} e-" if signal["clipped"] else ""
+    return [
+        f"signal     per pixel and exposure: LED ON {level('led_on')}{clipped}; OFF {level('led_off')}; "
+        f"background {level('background')}; dark {signal['dark_e']:.3g} e-",
+        f"           noise {signal['noise_e']:.3g} e- halfway: stripe SNR {signal['snr_pixel']:.3g} per pixel, "
+        f"{signal['snr_row']:.3g} for a row's mean over the LED's {signal['led_width_px']:.0f} px",
     ]

@@ -46,12 +46,16 @@ def test_bad_override_is_one_line(capsys):
 
 def test_describe_text_and_json(capsys):
     assert main(["describe", "paper-default"]) == 0
-    assert "56 chips = 7.0000 ms" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "56 chips = 7.0000 ms" in out
+    # At ISO 10000 the ADC's range is 43.6 e-: the LED's ON level clips.
+    assert "signal     per pixel and exposure: LED ON" in out and "clipped at 43.59 e-" in out
     assert main(["describe", "paper-default", "--json", "--set", "link.strategy=rs", "--set", "link.repeats=2"]) == 0
     info = json.loads(capsys.readouterr().out)
     assert info["message"]["packets"] == 22
     assert info["schedule"]["emissions_per_round"] == 44
     assert info["schedule"]["first_sequence_numbers"][:3] == [0, 1, 2]
+    assert info["signal"]["electrons"]["led_on"] > info["signal"]["electrons"]["led_off"] > 0
 
 
 def test_describe_predicts_the_link(capsys):

@@ -124,3 +124,26 @@ def test_unlisted_effects_are_absent_from_the_pipeline():
     names = RenderPipeline(make_scene(effects=("read_noise",))).stage_names
     assert "read_noise[table]" in names
     assert not any(n.startswith(("shot_noise", "ambient", "prnu", "dsnu", "dark_current")) for n in names)
+
+
+def test_signal_budget_matches_a_noiseless_render():
+    from rollsim.optics.scene_light import signal_budget
+
+    scene = make_scene(effects=("ambient",), camera={"height_px": 40, "width_px": 40, "iso": 400.0},
+                       led={"size_mm": 200.0, "shape": "square", "luminous_intensity_cd": 0.3, "off_level": 0.25},
+                       link={"pattern": "on"})
+    budget = signal_budget(scene)
+    assert budget["electrons"]["led_on"] == pytest.approx(scene.camera.qe * budget["photons"]["led_on"])
+    assert budget["electrons"]["led_off"] < budget["electrons"]["led_on"] and not budget["clipped"]
+    pipeline = RenderPipeline(scene)
+    image = pipeline.render(0).image.astype(float)
+    rendered_e = (image - scene.camera.black_level_dn) / pipeline.setup.gain_dn_per_e
+    assert rendered_e.mean() == pytest.approx(budget["electrons"]["led_on"], abs=0.5 / pipeline.setup.gain_dn_per_e)
+    off = RenderPipeline(make_scene(effects=("ambient",), camera={"height_px": 40, "width_px": 40, "iso": 400.0},
+                                    led={"size_mm": 200.0, "shape": "square", "luminous_intensity_cd": 0.3,
+                                         "off_level": 0.25}, link={"pattern": "off"}))
+    off_e = (off.render(0).image.astype(float) - scene.camera.black_level_dn) / pipeline.setup.gain_dn_per_e
+    assert off_e.mean() == pytest.approx(budget["electrons"]["led_off"], abs=0.5 / pipeline.setup.gain_dn_per_e)
+    # Noiseless but for quantisation: SNR = gap / sqrt(1/12) DN, in electrons.
+    gap = budget["electrons"]["led_on"] - budget["electrons"]["led_off"]
+    assert budget["snr_pixel"] == pytest.approx(gap * pipeline.setup.gain_dn_per_e * np.sqrt(12.0))
