@@ -1,6 +1,6 @@
 """rollsim: a physically based rolling-shutter simulator for optical camera communication."""
 
-__version__ = "0.1.0"
+from rollsim.version import __version__
 
 __all__ = ["__version__", "sweep"]
 

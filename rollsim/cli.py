@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Optional, Sequence
 
-from rollsim import __version__
+from rollsim.version import __version__
 from rollsim.errors import EXIT_FAILURE, Interrupted, RollsimError, clip
 
 EXIT_OK = 0

@@ -17,9 +17,11 @@ from typing import TYPE_CHECKING, Callable, Iterable, Iterator, Optional
 
 import cv2
 
+from rollsim.version import __version__
 from rollsim.outputs import staged_directory
 from rollsim.parallel import chunked, default_workers, ordered_chunk_map
 from rollsim.protocol.frames import FRAME_NAME  # the name decoders read back
+from rollsim.protocol.png_text import add_png_text
 from rollsim.render.pipeline import RenderPipeline, check_render_memory
 from rollsim.scene import scene_to_yaml
 
@@ -46,14 +48,42 @@ class RenderSummary:
     workers: int
 
 
-def encode_png(image) -> bytes:
-    """PNG bytes of an 8- or 16-bit image: gray ``(H, W)`` or RGB ``(H, W, 3)``."""
+def encode_png(image, text: Optional[dict] = None) -> bytes:
+    """PNG bytes of an 8- or 16-bit image: gray ``(H, W)`` or RGB ``(H, W, 3)``,
+    with ``text`` as tEXt chunks (:mod:`rollsim.protocol.png_text`)."""
     if image.ndim == 3:
         image = image[:, :, ::-1]  # OpenCV writes BGR: the PNG holds true RGB
     ok, buffer = cv2.imencode(".png", image, PNG_PARAMS)
     if not ok:
         raise RuntimeError("PNG encoding failed")
-    return buffer.tobytes()
+    return add_png_text(buffer.tobytes(), text) if text else buffer.tobytes()
+
+
+def frame_text(scene: Scene, truth: dict) -> dict[str, str]:
+    """A frame's metadata, as its PNG text chunks say it.
+
+    The camera settings a decoder may use (exposure, ISO, row time, black
+    level, gain at the set ISO, ADC bits, output format), the frame's index
+    and start time, the seeds and the rollsim version. Numbers are written
+    with ``repr``, so they read back exactly.
+    """
+    cam = scene.camera
+    return {
+        "Software": f"rollsim {__version__}",
+        "rollsim_version": __version__,
+        "scene": scene.name,
+        "frame": str(truth["frame"]),
+        "start_s": repr(truth["start_s"]),
+        "exposure_us": repr(cam.exposure_us),
+        "iso": repr(cam.iso),
+        "row_time_us": repr(cam.row_time_s * 1e6),
+        "black_level_dn": str(cam.black_level_dn),
+        "gain_dn_per_e": repr(cam.gain_dn_per_e_at_iso),
+        "adc_bits": str(cam.adc_bits),
+        "output": cam.output,
+        "seed": str(scene.seed),
+        "identity_seed": str(scene.seed if cam.identity_seed is None else cam.identity_seed),
+    }
 
 
 _WORKER_PIPELINE: Optional[RenderPipeline] = None
@@ -67,9 +97,11 @@ def _init_worker(scene: Scene) -> None:
 def _render_chunk(indices: list[int], frames_dir: Path) -> list[dict]:
     truths = []
     assert _WORKER_PIPELINE is not None  # set by _init_worker in this process
+    scene = _WORKER_PIPELINE.setup.scene
     for index in indices:
         frame = _WORKER_PIPELINE.render(index)
-        (frames_dir / FRAME_NAME.format(frame.index)).write_bytes(encode_png(frame.image))
+        png = encode_png(frame.image, frame_text(scene, frame.truth))
+        (frames_dir / FRAME_NAME.format(frame.index)).write_bytes(png)
         truths.append(frame.truth)
     return truths
 

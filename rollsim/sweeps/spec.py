@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Optional
 
-from rollsim import __version__
+from rollsim.version import __version__
 from rollsim.errors import RollsimError, SceneError, clip
 from rollsim.sweeps.grid import Axis, Cell, build_cells, grid_axis, zip_axis
 

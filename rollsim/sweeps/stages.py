@@ -141,7 +141,7 @@ def _write_frames(run, scene: Scene, frames_dir: Path) -> None:
     import json
 
     from rollsim.outputs import staged_directory
-    from rollsim.render.writer import FRAME_NAME, encode_png
+    from rollsim.render.writer import FRAME_NAME, encode_png, frame_text
     from rollsim.scene import scene_to_yaml
 
     with staged_directory(frames_dir) as staging:
@@ -150,7 +150,8 @@ def _write_frames(run, scene: Scene, frames_dir: Path) -> None:
         with open(staging / "truth.jsonl", "w", encoding="utf-8") as truth:
             for index in range(scene.frames):
                 frame = run.step(index)
-                (staging / "frames" / FRAME_NAME.format(index)).write_bytes(encode_png(frame.image))
+                png = encode_png(frame.image, frame_text(scene, frame.truth))
+                (staging / "frames" / FRAME_NAME.format(index)).write_bytes(png)
                 truth.write(json.dumps(frame.truth, separators=(",", ":")) + "\n")
 
 
