@@ -36,6 +36,17 @@ MIN_EDGES = 8
 # an RMS residual above this fraction of the period means the frame shows
 # something else (data, or no stripes), and it gives no estimate.
 MAX_RESIDUAL_PERIODS = 0.1
+# A square wave's ON runs all have one length, and so do its OFF runs (the
+# exposure and blooming may make them unequal to each other), and the two
+# add up to the period. Data can put every edge on a grid of one period
+# (a pulse-length code of 1- and 3-chip runs does, on a 2-chip grid) and
+# fit the regression. A frame is a square wave's when at least
+# MIN_TYPICAL_RUNS of each level's runs lie within RUN_TOLERANCE_PERIODS of
+# the period (or MIN_RUN_TOLERANCE_ROWS, a row's rounding) of their median:
+# noise may split or merge a few runs, data moves half of them a chip.
+RUN_TOLERANCE_PERIODS = 0.15
+MIN_RUN_TOLERANCE_ROWS = 0.75
+MIN_TYPICAL_RUNS = 0.75
 
 
 class RowTimeError(ValueError):
@@ -123,9 +134,42 @@ def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, flo
     residual = e - period * k
     if np.sqrt(np.mean(residual**2)) > MAX_RESIDUAL_PERIODS * period:
         return None
+    if not runs_fit_a_square_wave(values, runs.bounds, period):
+        return None
     dof = max(1, k.size - 1 - len(groups))
     stderr = float(np.sqrt(np.sum(residual**2) / dof / sxx))
     return period, stderr, int(k.size)
+
+
+def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: float) -> bool:
+    """Whether the whole runs (ON and OFF between two decided runs) are a square wave's.
+
+    At least :data:`MIN_TYPICAL_RUNS` of each level's runs lie within the
+    tolerance (:data:`RUN_TOLERANCE_PERIODS` of the period, at least
+    :data:`MIN_RUN_TOLERANCE_ROWS`) of that level's median length, and the
+    two medians add up to the period within it.
+
+    Parameters
+    ----------
+    values : ndarray of int
+        Level of each run: 1 ON, 0 OFF, −1 undecided.
+    bounds : ndarray
+        Run boundaries in rows, one more than ``values``.
+    period_rows : float
+    """
+    lengths = np.diff(np.asarray(bounds, dtype=np.float64))
+    values = np.asarray(values)
+    whole = np.zeros(values.size, dtype=bool)
+    whole[1:-1] = (values[1:-1] >= 0) & (values[:-2] >= 0) & (values[2:] >= 0)
+    on, off = lengths[whole & (values == 1)], lengths[whole & (values == 0)]
+    if on.size < 2 or off.size < 2:
+        return False
+    tolerance = max(RUN_TOLERANCE_PERIODS * period_rows, MIN_RUN_TOLERANCE_ROWS)
+
+    def typical(runs: np.ndarray) -> bool:
+        return bool(np.mean(np.abs(runs - np.median(runs)) <= tolerance) >= MIN_TYPICAL_RUNS)
+
+    return typical(on) and typical(off) and abs(np.median(on) + np.median(off) - period_rows) <= tolerance
 
 
 def frame_period_rows(image) -> tuple[float, float, int] | None:

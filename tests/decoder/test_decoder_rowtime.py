@@ -3,10 +3,10 @@
 import cv2
 import numpy as np
 import pytest
-from synth import make_transmitter, synth_frame
+from synth import make_transmitter, profile_from_chips, synth_frame
 
 from decoder import RowTimeError, estimate_row_time
-from decoder.rowtime import spectral_period_rows
+from decoder.rowtime import runs_fit_a_square_wave, spectral_period_rows
 
 # (clock Hz, row time s, exposure s): stripe periods of 2.5 to 25 rows,
 # exposures from a quarter chip to 1.5 chips.
@@ -103,3 +103,45 @@ def test_rendered_square_frames_of_four_cameras(camera):
     estimate, uncertainty = estimate_row_time(images, scene.link.clock_hz)
     assert estimate == pytest.approx(scene.camera.row_time_s, rel=0.005)
     assert abs(estimate - scene.camera.row_time_s) < 5 * uncertainty + 1e-4 * scene.camera.row_time_s
+
+
+def pulse_length_frames(lengths, seed=0, rows_per_chip=4.5, n=3):
+    """Frames of a pulse-length code: ON and OFF runs of random lengths (chips)."""
+    rng = np.random.default_rng(seed)
+    frames = []
+    for _ in range(n):
+        chips = []
+        while len(chips) < 400:
+            chips += [1] * int(rng.choice(lengths)) + [0] * int(rng.choice(lengths))
+        values = profile_from_chips(chips[:400], rows_per_chip, exposure_rows=0.8, on=220, off=30, noise=3, rng=rng)[:1000]
+        noisy = np.tile(values[:, None], (1, 300)) + rng.normal(0, 5, (values.size, 300))
+        frames.append(np.clip(noisy, 0, 255).astype(np.uint8))
+    return frames
+
+
+@pytest.mark.parametrize("lengths", [(1, 3), (2, 6), (1, 2, 3)])
+def test_a_pulse_length_code_gives_no_estimate(lengths):
+    # 1- and 3-chip runs put every edge on a 2-chip grid, as a square wave's
+    # (the regression fits); 2- and 6-chip runs on a 4-chip grid (it would
+    # say half the row time). Their run lengths vary: not a square wave.
+    with pytest.raises(RowTimeError, match="no frame shows a square-wave LED"):
+        estimate_row_time(pulse_length_frames(lengths), 8000.0)
+
+
+def test_run_lengths_of_a_square_wave_and_of_data():
+    bounds = np.cumsum([0, 3, 4, 5, 4, 5, 4, 5, 4, 3])  # OFF 4, ON 5 (widened by the exposure): period 9
+    values = np.array([0, 1, 0, 1, 0, 1, 0, 1, 0])
+    assert runs_fit_a_square_wave(values, bounds, 9.0)
+    assert not runs_fit_a_square_wave(values, bounds, 12.0)  # the runs do not add up to the period
+    data = np.cumsum([0, 3, 2, 6, 6, 2, 2, 6, 2, 3])  # runs of 1 and 3 chips at 2 rows per chip
+    assert not runs_fit_a_square_wave(values, data, 8.0)
+
+
+def test_the_cli_refuses_data_frames(tmp_path, capsys):
+    from rollsim.cli import main
+
+    out = tmp_path / "data"
+    assert main(["render", "paper-default", "--frames", "2", "--out", str(out), "--quiet", "--workers", "1"]) == 0
+    capsys.readouterr()
+    assert main(["estimate-row-time", str(out / "frames"), "--clock-hz", "8000"]) == 2
+    assert capsys.readouterr().err.strip() == "rollsim: error: no frame shows a square-wave LED to calibrate the row time from"
