@@ -26,6 +26,8 @@ def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn:
     as_count(black_level_dn, "black_level_dn")
     if not 1 <= as_count(adc_bits, "adc_bits") <= 16:
         raise ValueError(f"adc_bits must be in [1, 16] (uint16 output), got {adc_bits!r}")
+    if electrons.dtype.kind != "f":
+        electrons = electrons.astype(np.float64)  # counts: the arithmetic needs a float type
     dtype = electrons.dtype.type
     dn = electrons * dtype(gain_dn_per_e)
     dn += dtype(black_level_dn + 0.5)

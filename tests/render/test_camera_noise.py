@@ -34,7 +34,7 @@ def test_the_full_well_fills_the_adc_at_base_iso(name):
     values = PRESETS[name].as_dict()
     gain, black, bits, full_well = values["gain_dn_per_e"], values["black_level_dn"], values["adc_bits"], values["full_well_e"]
     top = 2**bits - 1
-    assert electrons_to_dn(np.array([full_well], dtype=float), gain, black, bits)[0] == top
+    assert electrons_to_dn(np.array([full_well]), gain, black, bits)[0] == top  # an integer count, too
     # Neither clips first: the full well lands within one electron of the top code.
     assert abs(full_well * gain + black - top) <= gain
 
