@@ -36,15 +36,11 @@ class Defocus(EffectParams):
         return self.focus_distance_cm * 1e-2
 
 
-def _fmt(value: float) -> str:
-    return f"{value:g}"
-
-
 def check(scene: Scene, params: Defocus) -> str | None:
     focal_length_mm = scene.camera.focal_length_mm
     if params.focus_distance_cm * 10.0 <= focal_length_mm:
-        return (f"effects.defocus.focus_distance_cm = {_fmt(params.focus_distance_cm)}: the lens cannot "
-                f"focus nearer than its focal length ({_fmt(focal_length_mm)} mm)")
+        return (f"effects.defocus.focus_distance_cm = {params.focus_distance_cm:g}: the lens cannot "
+                f"focus nearer than its focal length ({focal_length_mm:g} mm)")
     return None
 
 

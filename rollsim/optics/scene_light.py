@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, cast
 
-from rollsim.optics.geometry import led_image_size_px, magnification
+from rollsim.optics.geometry import magnification
 from rollsim.optics.radiometry import (
     lambertian_luminance_cd_m2,
     led_luminance_cd_m2,
@@ -77,61 +77,3 @@ def ambient_electron_rates(scene: Scene) -> tuple[float, float]:
     return (cast(float, cam.qe * photon_rate_per_pixel(background_lx, pitch, ppl)),
             cast(float, cam.qe * photon_rate_per_pixel(face_lx, pitch, ppl)))
 
-
-def signal_budget(scene: Scene) -> dict:
-    """Photons and electrons per pixel of one exposure, and the stripes' SNR.
-
-    For a pixel fully covered by the LED in a fully ON row and a fully OFF
-    row (the LED's light plus ambient light reflected by its face, when the
-    ``ambient`` effect is listed) and for a background pixel, at the
-    scene's exposure and on the optical axis, before any noise (the LED's
-    face at its mean luminance: ``led_profile`` and ``glare`` move its light
-    about, which this does not follow); then the
-    ON–OFF gap over the noise σ of a pixel halfway between (shot noise of
-    its photo- and dark electrons, read noise, quantisation at the set ISO;
-    noise effects not listed add nothing), per pixel and for a row mean over
-    the LED's width. Electrons above what the sensor records (the smaller
-    of the full well and the ADC's range) are clipped, and said so.
-
-    Returns
-    -------
-    dict
-        ``photons`` and ``electrons`` of ``led_on``, ``led_off`` and
-        ``background``; ``dark_e``, ``noise_e``, ``recordable_e``,
-        ``clipped``, ``snr_pixel``, ``snr_row`` and ``led_width_px``.
-    """
-    cam, led = scene.camera, scene.led
-    listed = set(scene.effects.enabled())
-    t_exp, pitch = cam.exposure_s, cam.pixel_pitch_um * 1e-6
-    led_photons = photon_rate_per_pixel(led_sensor_illuminance_lx(scene), pitch,
-                                        photons_per_lumen_monochromatic(led.peak_wavelength_nm)) * t_exp
-    background_lx, face_lx = ambient_sensor_illuminances_lx(scene)
-    ppl = photons_per_lumen_illuminant(scene.environment.ambient_illuminant)
-    ambient_on = "ambient" in listed
-    background_photons = photon_rate_per_pixel(background_lx, pitch, ppl) * t_exp if ambient_on else 0.0
-    face_photons = photon_rate_per_pixel(face_lx, pitch, ppl) * t_exp if ambient_on else 0.0
-    photons = {"led_on": led_photons + face_photons, "led_off": led.off_level * led_photons + face_photons,
-               "background": background_photons}
-    electrons = {key: cam.qe * value for key, value in photons.items()}
-    gain = cam.gain_dn_per_e_at_iso
-    recordable = min(cam.full_well_e, (2**cam.adc_bits - 1 - cam.black_level_dn) / gain)
-    dark = cam.dark_current_e_per_s * t_exp if "dark_current" in listed else 0.0
-    on, off = (min(electrons[key] + dark, recordable) for key in ("led_on", "led_off"))
-    variance = 1.0 / (12.0 * gain**2)
-    if "shot_noise" in listed:
-        variance += 0.5 * (on + off)
-    if "read_noise" in listed:
-        variance += cam.read_noise_e**2
-    noise = math.sqrt(variance)
-    width = led_image_size_px(scene)
-    return {
-        "photons": {key: float(value) for key, value in photons.items()},
-        "electrons": {key: float(value) for key, value in electrons.items()},
-        "dark_e": float(dark),
-        "recordable_e": float(recordable),
-        "clipped": bool(electrons["led_on"] + dark > recordable),
-        "noise_e": noise,
-        "snr_pixel": (on - off) / noise,
-        "snr_row": (on - off) / noise * math.sqrt(max(width, 1.0)),
-        "led_width_px": float(width),
-    }

@@ -158,8 +158,10 @@ def prepare_setup(setup: SceneSetup) -> SceneSetup:
 
 
 def assemble_stages(setup: SceneSetup) -> list[Stage]:
-    """The stages of a scene, in slot order: the core plus the listed effects only."""
-    _check_effects(setup)
+    """The stages of a scene, in slot order: the core plus the listed effects only.
+
+    ``setup`` comes from :func:`prepare_setup`, which checked the effects.
+    """
     core = [builder(setup) for builder in CORE_BUILDERS]
     stages = [effect.stage(setup, params) for effect, params in setup.scene.effects.listed()]
     order = {slot: i for i, slot in enumerate(SLOTS)}

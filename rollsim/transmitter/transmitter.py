@@ -95,7 +95,7 @@ class Transmitter:
         chip = self.waveform.chip_index(t_s)
         out = {"chip": chip, "level": self.waveform.chips.values(chip)}
         chips = self.waveform.chips
-        if self.sends_data and isinstance(chips, DataChips):
+        if isinstance(chips, DataChips):  # the data pattern's
             tx, offset = chips.split(chip)
             out.update(
                 tx=tx,

@@ -42,8 +42,8 @@ def small_scene(effects, registry=None, **camera):
 
 
 def minimal_listing(effect):
-    """The effect with default parameters, plus what it requires; None if its
-    parameters have no defaults (their fixture then gives them)."""
+    """The effect with default parameters (``defocus``'s required focus
+    distance given), plus the effects it requires."""
     params = {"defocus": {"focus_distance_cm": 7.5}}.get(effect.name, {})
     listing = {effect.name: params}
     listing.update({other: {} for other, _ in effect.requires})
