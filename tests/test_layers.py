@@ -66,3 +66,12 @@ def test_a_backward_import_breaks_the_contract(tmp_path):
     )
     assert run.returncode == 1, run.stdout + run.stderr
     assert "rollsim.protocol.frames -> rollsim.render" in run.stdout
+
+
+def test_every_package_is_in_the_distribution():
+    # setuptools' explicit package list: a package missing from it is absent
+    # from a wheel (an editable install still finds it, which hid the gap).
+    listed = set(tomllib.loads(PYPROJECT.read_text())["tool"]["setuptools"]["packages"])
+    on_disk = {".".join(p.parent.relative_to(ROOT).parts) for root in ("rollsim", "decoder")
+               for p in (ROOT / root).rglob("__init__.py")}
+    assert on_disk - listed == set()

@@ -26,12 +26,15 @@ from rollsim.effects import (
     flicker,
     frame_jitter,
     glare,
+    isp_smoothing,
+    jpeg,
     led_profile,
     led_rise_time,
     motion,
     prnu,
     read_noise,
     row_noise,
+    sharpening,
     shot_noise,
     tone_curve,
     vignetting,
@@ -59,6 +62,9 @@ REGISTRY: tuple[Effect, ...] = (
     motion.EFFECT,
     flicker.EFFECT,
     blooming.EFFECT,
+    isp_smoothing.EFFECT,
+    sharpening.EFFECT,
+    jpeg.EFFECT,
 )
 
 __all__ = ["Effect", "EffectParams", "NoParams", "REGISTRY", "SLOTS", "Stage"]

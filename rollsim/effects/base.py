@@ -54,7 +54,10 @@ SLOTS = (
     "offset",  # fixed offsets of the dark signal, which survive the clip: DSNU, column pattern
     "read",  # read noise, row noise
     "adc",  # conversion gain, black level, quantisation
-    "output",  # gray8 / raw16
+    "output",  # gray8 / raw16 / rgb8, with the black clip and the tone curve
+    "denoise",  # the ISP, on the 8-bit image: smoothing
+    "sharpen",  # unsharp masking
+    "compress",  # JPEG
 )
 
 
@@ -182,3 +185,10 @@ def fixed_pattern_rng(setup: SceneSetup, stream: str) -> np.random.Generator:
 def fixed_pattern_map(setup: SceneSetup, stream: str) -> np.ndarray:
     """A standard normal map of the frame's shape, float32, the same in every frame (see :func:`fixed_pattern_rng`)."""
     return fixed_pattern_rng(setup, stream).standard_normal(setup.shape, dtype=np.float32)
+
+
+def isp_output_error(scene: Scene, name: str) -> Optional[str]:
+    """Why ``scene`` cannot have ISP effect ``name``: it needs 8-bit output (an ISP's)."""
+    if scene.camera.output not in ("gray8", "rgb8"):
+        return f"effects.{name}: acts on 8-bit output; set camera.output to 'gray8' or 'rgb8'"
+    return None

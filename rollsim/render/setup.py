@@ -24,6 +24,7 @@ from rollsim.optics.footprint import Footprint, footprint, led_rows_from_coverag
 from rollsim.optics.scene_light import ambient_electron_rates, led_electron_rate
 from rollsim.optics.vignetting import image_distance_m
 from rollsim.sensor import RowTiming
+from rollsim.sensor.tone import ToneCurve
 from rollsim.transmitter import Transmitter, transmitter_from_scene
 
 if TYPE_CHECKING:
@@ -70,8 +71,9 @@ class SceneSetup:
     cfa_pattern, demosaic : str or None
         The colour filter array's top-left 2×2 block and the demosaic method
         of ``rgb8`` output (``bayer``); None for a monochrome sensor.
-    gray8_gamma : float or None
-        Display gamma of ``gray8`` output (``tone_curve``); None for linear.
+    tone : ToneCurve or None
+        The tone curve of ``gray8`` and ``rgb8`` output (``tone_curve``); None
+        for linear.
     """
 
     scene: Scene
@@ -93,7 +95,7 @@ class SceneSetup:
     lens_kernels: tuple = ()
     cfa_pattern: str | None = None
     demosaic: str | None = None
-    gray8_gamma: float | None = None
+    tone: ToneCurve | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

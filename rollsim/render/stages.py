@@ -110,17 +110,16 @@ def output_stage(setup: SceneSetup) -> Stage:
 
         return Stage("raw16", "output", run)
     if cam.output == "gray8":
-        gamma = setup.gray8_gamma  # tone_curve
-        # Every DN maps to one gray level: a table lookup per pixel.
-        lut = gray8_lut(cam.black_level_dn, cam.adc_bits, gamma)
+        # Every DN maps to one gray level: a table lookup per pixel (with the tone curve's).
+        lut = gray8_lut(cam.black_level_dn, cam.adc_bits, setup.tone)
 
         def run(state):
             state.image = lut[state.dn]
 
-        return Stage("gray8" if gamma is None else "gray8_tone_curve", "output", run)
+        return Stage("gray8" if setup.tone is None else "gray8_tone_curve", "output", run)
     if cam.output == "rgb8":
         # The scene loader lets rgb8 through only with the bayer effect.
-        pattern, method, lut = setup.cfa_pattern, setup.demosaic, gray8_lut(cam.black_level_dn, cam.adc_bits)
+        pattern, method, lut = setup.cfa_pattern, setup.demosaic, gray8_lut(cam.black_level_dn, cam.adc_bits, setup.tone)
         if pattern is None or method is None:
             raise RollsimError("camera.output = 'rgb8': needs the bayer effect")
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.sensor.tone import ToneCurve
 from rollsim.validation import as_count, as_positive
 
 
@@ -50,23 +51,32 @@ def full_scale_electrons(adc_bits: int, black_level_dn: int, gain_dn_per_e: floa
     return (2 ** as_count(adc_bits, "adc_bits") - 1 - as_count(black_level_dn, "black_level_dn")) / gain_dn_per_e
 
 
-def gray8_lut(black_level_dn: int, adc_bits: int, gamma: float | None = None) -> np.ndarray:
+def gray8_lut(black_level_dn: int, adc_bits: int, tone: ToneCurve | None = None) -> np.ndarray:
     """The gray8 value of every DN, 0 … 2^bits − 1 (see :func:`dn_to_gray8`)."""
-    return dn_to_gray8(np.arange(2**adc_bits, dtype=np.uint16), black_level_dn, adc_bits, gamma)
+    return dn_to_gray8(np.arange(2**adc_bits, dtype=np.uint16), black_level_dn, adc_bits, tone)
 
 
-def dn_to_gray8(dn: np.ndarray, black_level_dn: int, adc_bits: int, gamma: float | None = None) -> np.ndarray:
-    """8-bit grey image: black level removed, range scaled to 0…255.
+def dn_to_gray8(dn: np.ndarray, black_level_dn: int, adc_bits: int, tone: ToneCurve | None = None) -> np.ndarray:
+    """8-bit grey image: black level removed and clipped at 0, range scaled to 0…255.
 
-    v = (DN − black) / (2^bits − 1 − black), clipped to [0, 1], optionally
-    raised to 1/gamma (the ``tone_curve`` effect), then rounded to 0…255.
+    v = (DN − black) / (2^bits − 1 − black), clipped to [0, 1] (the ISP's
+    black clip: a dark pixel's negative noise is lost), optionally mapped by
+    a tone curve (the ``tone_curve`` effect), then rounded to 0…255.
+
+    Parameters
+    ----------
+    dn : ndarray of int
+    black_level_dn : int
+    adc_bits : int
+    tone : ToneCurve, optional
+        None for linear output.
     """
     full_scale = float(2**adc_bits - 1 - black_level_dn)
     if full_scale <= 0:
         raise ValueError("black level leaves no ADC range")
     v = (dn.astype(np.float32) - np.float32(black_level_dn)) * np.float32(1.0 / full_scale)
     np.clip(v, 0.0, 1.0, out=v)
-    if gamma is not None:
-        np.power(v, np.float32(1.0 / gamma), out=v)
+    if tone is not None:
+        v = tone(v)
     v *= np.float32(255.0)
     return np.rint(v).astype(np.uint8)

@@ -20,7 +20,7 @@ from rollsim.transmitter import transmitter_from_scene
 from conftest import make_scene
 from test_render_io import HARD_CASES
 
-# Effect name -> the stage name its bundled scene adds (None: the effect works
+# Bundled scene effect-NAME -> the stage name it adds (None: its effect works
 # through a per-scene hook and adds no stage).
 EFFECT_STAGES = {
     "led_rise_time": "led_rise_time[exact]",
@@ -29,6 +29,7 @@ EFFECT_STAGES = {
     "flicker": "flicker",
     "blooming": "blooming",
     "row_noise": "row_noise",
+    "isp": "jpeg",  # the scene effect-isp: the tone curve, isp_smoothing, sharpening and jpeg
     "blur": None,
     "defocus": None,
     "vignetting": None,
@@ -124,15 +125,19 @@ def test_frames_with_every_optical_effect_are_byte_identical(tmp_path):
 
 
 def test_every_effect_at_once_is_deterministic_and_decodes(tmp_path):
-    """Every effect on one scene (but tone_curve, which is for gray8 output,
-    and led_profile and glare, which motion does not take yet):
+    """Every effect on one scene (but led_profile and glare, which motion does not
+    take yet, and tone_curve: under this defocus a chip's rows never reach a
+    plateau, and the decoder's mid-level threshold, taken after an sRGB curve,
+    then misreads 16 of 27 PHY-SDUs; the decoder's envelope work owns that):
     the same bytes for 1 and 2 workers, and a moving, blurred, flickering,
     jittered colour LED still decodes."""
     overrides = ["camera.output=rgb8", "camera.width_px=640", "effects.blur.sigma_px=1.5",
                  "effects.defocus.focus_distance_cm=4.6", "effects.vignetting=null", "effects.dark_current=null",
                  "effects.prnu=null", "effects.dsnu=null", "effects.led_rise_time.tau_us=5",
                  "effects.frame_jitter.std_us=30", "effects.motion.amplitude_y_px=6", "effects.flicker.depth=0.3",
-                 "effects.blooming=null", "effects.row_noise=null", "effects.column_fpn=null"]
+                 "effects.blooming=null", "effects.row_noise=null", "effects.column_fpn=null",
+                 "effects.isp_smoothing=null", "effects.sharpening=null",
+                 "effects.jpeg=null"]
     scene = load_scene("effect-bayer", overrides)
     assert set(scene.effects.enabled()) == set(EFFECT_NAMES) - {"tone_curve", "led_profile", "glare"}
     images, truth = render_frames(scene, 8)

@@ -27,6 +27,8 @@ from rollsim.scene import EFFECT_NAMES, Effects, Scene, scene_from_dict, scene_m
 # that more than one effect's physics shares.
 HELPERS = {"base", "lens", "readable"}
 EFFECTS_DIR = Path(rollsim.effects.__file__).parent
+# Effects of the ISP, which act on 8-bit output only.
+EIGHT_BIT = {"tone_curve", "isp_smoothing", "sharpening", "jpeg"}
 
 
 def small_scene(effects, registry=None, **camera):
@@ -78,7 +80,7 @@ def test_the_scene_schema_is_the_registry():
 @pytest.mark.parametrize("effect", REGISTRY, ids=lambda e: e.name)
 def test_the_pipeline_is_the_registry(effect):
     """Listing an effect adds its stage (in its slot) and runs its hook, and nothing else."""
-    output = "rgb8" if effect.name == "bayer" else "gray8" if effect.name == "tone_curve" else "raw16"
+    output = "rgb8" if effect.name == "bayer" else "gray8" if effect.name in EIGHT_BIT else "raw16"
     scene = small_scene(minimal_listing(effect), output=output)
     pipeline = RenderPipeline(scene)
     bare = RenderPipeline(small_scene({other: {} for other, _ in effect.requires},
@@ -94,7 +96,7 @@ def test_the_pipeline_is_the_registry(effect):
 
 
 def test_stages_run_in_slot_order():
-    scene = small_scene({effect.name: {} for effect in REGISTRY if effect.slot and not effect.excludes})
+    scene = small_scene({effect.name: {} for effect in REGISTRY if effect.slot and not effect.excludes}, output="gray8")
     slots = [stage.slot for stage in RenderPipeline(scene).stages]
     assert slots == sorted(slots, key=SLOTS.index)
 

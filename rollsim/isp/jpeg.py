@@ -1,0 +1,61 @@
+"""JPEG compression of a frame, as a phone's still or video pipeline leaves it.
+
+The frame goes through OpenCV's JPEG encoder (libjpeg, baseline, 4:2:0
+chroma for colour) and back, so its blocking and ringing are the real
+codec's. The codec is deterministic: the same frame and quality give the
+same bytes.
+
+Known answer (what the tests check): the encoder's quantisation tables are
+the IJG-scaled tables of ITU-T T.81 Annex K. A block of 8×8 equal pixels has
+only a DC coefficient, 8·(v − 128), quantised with the step q_DC of the
+luminance table's (0, 0) entry, 16, scaled for the quality; its decoded
+pixels are off by at most q_DC/16 plus the rounding.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+LUMA_DC_ENTRY = 16  # ITU-T T.81 Table K.1, element (0, 0)
+
+
+def jpeg_dc_step(quality: int) -> int:
+    """The DC quantisation step of the luminance table at ``quality`` (IJG scaling).
+
+    Parameters
+    ----------
+    quality : int
+        1 … 100.
+    """
+    if not 1 <= int(quality) <= 100:
+        raise ValueError(f"quality must be in 1 … 100, got {quality!r}")
+    scale = 5000 // quality if quality < 50 else 200 - 2 * quality
+    return int(min(255, max(1, (LUMA_DC_ENTRY * scale + 50) // 100)))
+
+
+def jpeg_round_trip(image: np.ndarray, quality: int) -> np.ndarray:
+    """``image`` encoded as a JPEG at ``quality`` and decoded again.
+
+    Parameters
+    ----------
+    image : ndarray of uint8, shape (H, W) (grey) or (H, W, 3) (RGB)
+    quality : int
+        1 … 100, as OpenCV's ``IMWRITE_JPEG_QUALITY``.
+
+    Returns
+    -------
+    ndarray of uint8, the shape of ``image``
+    """
+    import cv2
+
+    jpeg_dc_step(quality)  # validates the range
+    colour = image.ndim == 3
+    # OpenCV's codec takes BGR; rollsim's rgb8 frames are RGB.
+    source = cv2.cvtColor(image, cv2.COLOR_RGB2BGR) if colour else image
+    ok, encoded = cv2.imencode(".jpg", source, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    if not ok:
+        raise RuntimeError("OpenCV could not encode the frame as JPEG")
+    decoded = cv2.imdecode(encoded, cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE)
+    if decoded is None:
+        raise RuntimeError("OpenCV could not decode the JPEG it encoded")
+    return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB) if colour else decoded
