@@ -303,6 +303,58 @@ def cmd_estimate_row_time(args) -> int:
     return EXIT_OK
 
 
+def cmd_fit_camera(args) -> int:
+    """Fit a camera, its ISP and the LED's image to real frames of a square-wave LED."""
+    import numpy as np
+
+    from decoder import FrameReadError, RowTimeError, read_frame
+
+    from rollsim.decode import frame_pixel_limit
+    from rollsim.fit import compare, fit_camera
+    from rollsim.fit.report import FILES, fit_outputs
+    from rollsim.outputs import check_file_targets
+    from rollsim.scene import load_scene
+
+    if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
+        raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
+    if args.pattern != "square":
+        raise RollsimError(f"--pattern = {args.pattern!r}: only 'square' is fitted")
+    paths = _png_paths(args.frames)
+    if len(paths) < 2:
+        raise RollsimError(f"fit-camera needs at least two frames, got {len(paths)}")
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RollsimError(f"--out {out}: cannot create the directory: {exc.strerror}") from None
+    check_file_targets([out / name for name in FILES], args.force)  # before the work, not after
+    frames = []
+    for path in paths:
+        try:
+            image = read_frame(path, max_pixels=frame_pixel_limit(workers=1))
+        except FrameReadError as exc:
+            raise RollsimError(str(exc)) from None
+        if image.dtype != np.uint8:
+            raise RollsimError(f"{path}: fit-camera reads 8-bit frames (a camera's processed output), got 16-bit")
+        frames.append(image if image.ndim == 2 else image.mean(axis=2))
+    base = load_scene(args.scene, args.overrides)
+    try:
+        fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations)
+    except (ValueError, RowTimeError) as exc:
+        raise RollsimError(f"fit-camera: {exc}") from None
+    comparison = compare(frames, fit)
+    _write_outputs(args, {str(k): v for k, v in fit_outputs(out, fit, comparison, args.clock_hz,
+                                                            [str(p) for p in paths]).items()})
+    est = fit.estimates
+    print(f"row time {est['row_time_us'].value:.4f} us, exposure {est['exposure_us'].value:.1f} us, "
+          f"ISO {est['iso'].value:.0f}, read noise {est['read_noise_e'].value:.2f} e-, "
+          f"LED at ({est['led_centre_x_px'].value:.1f}, {est['led_centre_y_px'].value:.1f}) px, "
+          f"diameter {est['led_diameter_px'].value:.1f} px")
+    print(f"row-profile correlation with the fit: mean {np.mean(comparison.correlations):.4f}; "
+          f"wrote {out / 'camera.yaml'}, fit.json, report.md, profiles.png")
+    return EXIT_OK
+
+
 def cmd_calibrate(args) -> int:
     """Fit the MMBP and Gilbert-Elliott models to an outcome trace."""
     from rollsim.calibrate import calibrate, format_calibration, load_trace
@@ -614,6 +666,19 @@ def _add_pixel_commands(sub) -> None:
     _add_json_file(p, "also write the estimate as JSON")
     _add_force(p)
     p.set_defaults(func=cmd_estimate_row_time)
+
+    p = sub.add_parser("fit-camera", help="fit a camera, its ISP and the LED's image to real frames of a square-wave LED")
+    p.add_argument("frames", nargs="+", metavar="FRAMES", help="8-bit PNG frames, consecutive, or directories of them")
+    p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
+    p.add_argument("--pattern", choices=["square"], default="square", help="what the LED sends (default square)")
+    p.add_argument("--scene", default="paper-geometric",
+                   help="base scene whose optics, LED geometry and distance are kept (default paper-geometric)")
+    p.add_argument("--iterations", type=_non_negative_int, default=4,
+                   help="rounds of refinement by rendering the fit (default 4; 0: direct estimates)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory: camera.yaml, fit.json, report.md")
+    _add_force(p, "existing camera.yaml, fit.json, report.md and profiles.png")
+    _add_set_option(p)
+    p.set_defaults(func=cmd_fit_camera)
 
     p = sub.add_parser("calibrate", help="fit MMBP (M, N, p_e) and Gilbert-Elliott models to an outcome trace")
     p.add_argument("trace", metavar="DIR|TRACE.csv", help="an evaluated render directory, or a CSV with a success column")

@@ -44,14 +44,56 @@ def profiled_light(fp: Footprint, centre_px: tuple[float, float], sigma_px: floa
         raise ValueError(f"sigma_px must be > 0, got {sigma_px}")
     if fp.coverage.size == 0 or not fp.coverage.any():
         return fp
-    cx, cy = centre_px
-    ys = np.arange(fp.rows.start, fp.rows.stop) + 0.5 - cy
-    xs = np.arange(fp.cols.start, fp.cols.stop) + 0.5 - cx
-    rho2 = ys[:, None] ** 2 + xs[None, :] ** 2
+    rho2 = _radius2_px2(fp, centre_px)
     # Relative to the nearest lit pixel: a profile far narrower than a pixel
     # must not underflow everywhere (its light then lands in that pixel).
     nearest = rho2[fp.coverage > 0].min()
-    weights = np.exp(-(rho2 - nearest) / (2.0 * sigma_px**2))
+    return _weighted(fp, np.exp(-(rho2 - nearest) / (2.0 * sigma_px**2)))
+
+
+def radial_table_light(fp: Footprint, centre_px: tuple[float, float], radius_px: float, table) -> Footprint:
+    """The footprint's coverage weighted by a measured radial radiance profile.
+
+    Parameters
+    ----------
+    fp : Footprint
+        The LED's coverage.
+    centre_px : (float, float)
+        ``(x, y)`` of the LED's centre in the frame, pixel coordinates.
+    radius_px : float
+        The face's radius in image pixels, > 0: the table's radius 1.
+    table : sequence of (float, float)
+        (radius / face radius, relative radiance) pairs, radii rising from 0
+        to 1, radiances ≥ 0 and not all 0; linear between them, the last
+        value beyond 1 (a square face's corners).
+
+    Returns
+    -------
+    Footprint
+        Same box; ``coverage`` holds relative light, with the same sum as
+        ``fp.coverage`` (the face emits the same total).
+    """
+    if not radius_px > 0:
+        raise ValueError(f"radius_px must be > 0, got {radius_px}")
+    if fp.coverage.size == 0 or not fp.coverage.any():
+        return fp
+    pts = np.asarray(table, dtype=np.float64)
+    weights = np.interp(np.sqrt(_radius2_px2(fp, centre_px)) / radius_px, pts[:, 0], pts[:, 1])
+    if not (weights * fp.coverage).any():
+        raise ValueError("the radial profile is zero over the whole face")
+    return _weighted(fp, weights)
+
+
+def _radius2_px2(fp: Footprint, centre_px: tuple[float, float]) -> np.ndarray:
+    """Squared distance of each box pixel's centre from ``centre_px``, px²."""
+    cx, cy = centre_px
+    ys = np.arange(fp.rows.start, fp.rows.stop) + 0.5 - cy
+    xs = np.arange(fp.cols.start, fp.cols.stop) + 0.5 - cx
+    return ys[:, None] ** 2 + xs[None, :] ** 2
+
+
+def _weighted(fp: Footprint, weights: np.ndarray) -> Footprint:
+    """The coverage times ``weights``, rescaled to the coverage's sum (light conserved)."""
     light = fp.coverage * weights
     light *= fp.coverage.sum() / light.sum()
     return Footprint(fp.rows, fp.cols, light)

@@ -8,7 +8,7 @@ import pytest
 from scipy.integrate import quad
 
 from rollsim.errors import SceneError
-from rollsim.optics.emitter import profiled_light
+from rollsim.optics.emitter import profiled_light, radial_table_light
 from rollsim.optics.footprint import Footprint, footprint
 from rollsim.optics.glare import glare_core_px, glared_light, moffat_kernel, moffat_mass_beyond
 from rollsim.render import RenderPipeline
@@ -128,6 +128,32 @@ def test_profile_far_narrower_than_a_pixel_stays_finite():
 def test_profile_refuses_a_bad_sigma():
     with pytest.raises(ValueError, match="sigma_px"):
         profiled_light(footprint((70.0, 60.0), 20.0, "disk", FRAME), (70.0, 60.0), 0.0)
+
+
+def test_a_measured_radial_table_conserves_light_and_follows_the_table():
+    fp = footprint((70.0, 60.0), 40.0, "disk", FRAME)
+    table = [[0.0, 1.0], [0.5, 0.8], [1.0, 0.4]]
+    light = radial_table_light(fp, (70.0, 60.0), 20.0, table)
+    assert light.coverage.sum() == pytest.approx(fp.coverage.sum(), rel=1e-12)
+    # Two fully covered pixels at radii 0.707 px and 10.01 px: the table's ratio.
+    i1, j1, i2, j2 = 60 - fp.rows.start, 70 - fp.cols.start, 60 - fp.rows.start, 80 - fp.cols.start
+    w1 = np.interp(math.hypot(0.5, 0.5) / 20.0, [0, 0.5, 1], [1.0, 0.8, 0.4])
+    w2 = np.interp(math.hypot(10.5, 0.5) / 20.0, [0, 0.5, 1], [1.0, 0.8, 0.4])
+    assert light.coverage[i2, j2] / light.coverage[i1, j1] == pytest.approx(w2 / w1, rel=1e-12)
+    # A flat table is the plain footprint.
+    flat = radial_table_light(fp, (70.0, 60.0), 20.0, [[0.0, 2.0], [1.0, 2.0]])
+    np.testing.assert_allclose(flat.coverage, fp.coverage, rtol=1e-12)
+    with pytest.raises(ValueError, match="zero"):
+        radial_table_light(fp, (70.0, 60.0), 20.0, [[0.0, 0.0], [1.0, 0.0]])
+
+
+@pytest.mark.parametrize("table, why", [([[0.0, 1.0]], "at least two"), ([[0.1, 1.0], [1.0, 1.0]], "from 0 to 1"),
+                                        ([[0.0, -1.0], [1.0, 1.0]], ">= 0")])
+def test_a_bad_radial_table_is_refused_naming_the_field(table, why):
+    effects = {"led_profile": {"profile": "table", "radial_table": table}}
+    with pytest.raises(SceneError) as err:
+        make_scene(effects=effects)
+    assert "effects.led_profile.radial_table" in str(err.value) and why in str(err.value)
 
 
 # ------------------------------------------------------------------ in a scene

@@ -1,0 +1,11 @@
+"""Fit a camera to real frames: ``rollsim fit-camera``.
+
+:func:`fit_camera` estimates the row time, exposure, ISP smoothing, tone
+curve, gain, read, row and column noise, and the LED's image from frames of
+an LED sending a square wave, and makes a scene of them; :func:`compare`
+renders that scene beside the frames.
+"""
+
+from rollsim.fit.camera import CameraFit, Comparison, compare, fit_camera
+
+__all__ = ["CameraFit", "Comparison", "compare", "fit_camera"]

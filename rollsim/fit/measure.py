@@ -1,0 +1,162 @@
+"""Measurements on real frames: the LED's disk, the background, and the noise.
+
+Every function takes 8-bit grey frames as float arrays (H, W) and returns
+numbers in 8-bit levels or pixels; none of them knows the camera. The LED is
+found on the brightest frame of the set (the pixelwise maximum, where the
+stripes of different frames fill each other in), its disk from the chord
+each row cuts: a circle of centre (cx, cy) and radius R cuts the chord
+w(y) with (w/2)² = R² − (y − cy)², which is linear in (R² − cy², cy) once
+y² is moved to the left. Temporal noise comes from differences of
+consecutive frames (fixed patterns cancel), spatial noise from the mean
+frame's flat background.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LedDisk:
+    """The LED's image: centre (x, y) and radius, in pixels."""
+
+    centre_x_px: float
+    centre_y_px: float
+    radius_px: float
+    rows_used: int
+
+
+def background_level(frame: np.ndarray, mask: np.ndarray) -> float:
+    """Median level of the pixels outside ``mask`` (8-bit levels)."""
+    return float(np.median(frame[~mask]))
+
+
+def find_led_disk(brightest: np.ndarray, background: float) -> LedDisk:
+    """The LED's disk on the pixelwise maximum of the frames.
+
+    Each row's lit run (above half-way between the background and the row's
+    own peak) gives a chord; the chords' squared half-widths are fitted by
+    the circle's equation, by least squares.
+
+    Raises
+    ------
+    ValueError
+        Too few rows show the LED to place a disk.
+    """
+    peak = brightest.max(axis=1)
+    contrast = peak - background
+    if not contrast.max() > 0:
+        raise ValueError("no pixel is above the background: no LED in the frames")
+    lit = contrast > 0.5 * contrast.max()
+    threshold = background + 0.5 * contrast
+    above = (brightest > threshold[:, None]) & lit[:, None]
+    counts = above.sum(axis=1)
+    rows_ok = counts >= 2
+    if rows_ok.sum() < 5:
+        raise ValueError("fewer than 5 rows show the LED: no disk to fit")
+    # A row's chord: its pixels above half-way between the background and
+    # the row's peak (the edge's half-level crossing for a symmetric blur).
+    xs = np.arange(brightest.shape[1]) + 0.5
+    ys = np.flatnonzero(rows_ok) + 0.5
+    halves = counts[rows_ok] / 2.0
+    mids = (above[rows_ok] * xs).sum(axis=1) / counts[rows_ok]
+    y = np.asarray(ys)
+    h2 = np.asarray(halves) ** 2
+    # (w/2)² + y² = (R² − cy²) + 2·cy·y
+    design = np.column_stack([np.ones_like(y), 2 * y])
+    (k, cy), *_ = np.linalg.lstsq(design, h2 + y**2, rcond=None)
+    radius2 = k + cy**2
+    # A chord through a dim row (a stripe's OFF) can be short: the disk is the
+    # envelope, so refit on the rows whose chords reach it.
+    model_h2 = np.clip(radius2 - (y - cy) ** 2, 0.0, None)
+    keep = h2 >= 0.8 * model_h2
+    if keep.sum() >= 5:
+        (k, cy), *_ = np.linalg.lstsq(design[keep], (h2 + y**2)[keep], rcond=None)
+        radius2 = k + cy**2
+    cx = float(np.median(np.asarray(mids)))
+    return LedDisk(cx, float(cy), float(np.sqrt(max(radius2, 0.25))), int(keep.sum()))
+
+
+def disk_mask(shape: tuple[int, int], disk: LedDisk, scale: float = 1.0) -> np.ndarray:
+    """Pixels within ``scale`` radii of the disk's centre."""
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    r2 = (xx + 0.5 - disk.centre_x_px) ** 2 + (yy + 0.5 - disk.centre_y_px) ** 2
+    return r2 <= (scale * disk.radius_px) ** 2
+
+
+def central_band(disk: LedDisk, shape: tuple[int, int], half_width: float = 0.3,
+                 height: float = 0.85) -> tuple[slice, slice]:
+    """The rows and columns of the band through the LED's centre that lies inside it."""
+    r = disk.radius_px
+    c0 = max(0, int(np.floor(disk.centre_x_px - half_width * r)))
+    c1 = min(shape[1], int(np.ceil(disk.centre_x_px + half_width * r)))
+    r0 = max(0, int(np.floor(disk.centre_y_px - height * r)))
+    r1 = min(shape[0], int(np.ceil(disk.centre_y_px + height * r)))
+    return slice(r0, r1), slice(c0, max(c1, c0 + 1))
+
+
+@dataclass(frozen=True)
+class TemporalNoise:
+    """Temporal noise of a region, from differences of consecutive frames (8-bit levels)."""
+
+    pixel_std: float  # per pixel, each row's common offset removed
+    row_std: float  # of the rows' common offset (row temporal noise), pixel noise removed
+    pairs: int
+
+
+def temporal_noise(frames: Sequence[np.ndarray], rows: slice, cols: slice) -> TemporalNoise:
+    """Temporal noise of a static region, from consecutive frame differences.
+
+    A difference of two frames holds twice each frame's variance and no
+    fixed pattern. Within a row the common offset (row noise) is removed
+    first; the row means' variance, less the pixels' share σ²/n, gives the
+    row noise.
+    """
+    pixel_var, row_var = [], []
+    for a, b in zip(frames[:-1], frames[1:]):
+        d = a[rows, cols] - b[rows, cols]
+        row_means = d.mean(axis=1, keepdims=True)
+        within = d - row_means
+        n = d.shape[1]
+        var_pixel = float(within.var()) * n / max(n - 1, 1) / 2.0
+        pixel_var.append(var_pixel)
+        row_var.append(max(0.0, float(row_means.var()) / 2.0 - var_pixel / n))
+    return TemporalNoise(float(np.sqrt(np.mean(pixel_var))), float(np.sqrt(np.mean(row_var))), len(pixel_var))
+
+
+def level_noise_pairs(frames: Sequence[np.ndarray], rows: slice, cols: slice) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row (mean level, temporal variance) in a band whose level changes from frame to frame.
+
+    For consecutive frames a and b, each pixel's deviation from its row's
+    mean in a, less the same in b, holds the temporal variance of a's level
+    plus b's. Rows are paired with the mean of their two levels; the
+    variance is half the sum (exact where the two levels agree, and rows
+    are kept only where they agree within 5 %).
+    """
+    levels, variances = [], []
+    for a, b in zip(frames[:-1], frames[1:]):
+        ba, bb = a[rows, cols], b[rows, cols]
+        ma, mb = ba.mean(axis=1), bb.mean(axis=1)
+        d = (ba - ma[:, None]) - (bb - mb[:, None])
+        n = d.shape[1]
+        close = np.abs(ma - mb) <= 0.05 * np.maximum(1.0, 0.5 * (ma + mb))
+        levels.append(0.5 * (ma + mb)[close])
+        variances.append((d.var(axis=1) * n / max(n - 1, 1) / 2.0)[close])
+    return np.concatenate(levels), np.concatenate(variances)
+
+
+def column_pattern_std(mean_frame: np.ndarray, rows: slice, cols: slice, n_frames: int,
+                       pixel_std: float) -> float:
+    """Standard deviation of the column offsets in a flat region of the mean frame.
+
+    A column's mean over the region's rows and the frames still carries the
+    temporal and per-pixel noise, σ²/(rows·frames) and less; the spatial
+    noise of the pixels (PRNU, DSNU) is left in, σ_s²/rows, and is small.
+    """
+    block = mean_frame[rows, cols]
+    col_means = block.mean(axis=0)
+    var = float(col_means.var()) - pixel_std**2 / (block.shape[0] * n_frames)
+    return float(np.sqrt(max(var, 0.0)))
