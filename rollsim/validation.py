@@ -74,3 +74,19 @@ def check_nonnegative(value, name: str):
         shown = repr(value) if array.size <= 4 else f"an array with {int(np.sum(~(np.isfinite(array) & (array >= 0))))} bad values"
         raise ValueError(f"{name} must be finite and >= 0, got {shown}")
     return value
+
+
+def unit_table_error(points, x_name: str, y_name: str) -> str | None:
+    """Why ``points`` is not a table of (x, y) pairs over x in [0, 1], or None.
+
+    The pairs are at least two and finite; x starts at 0, ends at 1 and
+    rises strictly. What y may be is the caller's to check.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
+        return f"needs at least two [{x_name}, {y_name}] pairs"
+    if not np.all(np.isfinite(pts)):
+        return "has a value that is not a finite number"
+    if pts[0, 0] != 0.0 or pts[-1, 0] != 1.0 or np.any(np.diff(pts[:, 0]) <= 0):
+        return f"{x_name} values must rise strictly from 0 to 1: start at 0, end at 1 and increase strictly"
+    return None

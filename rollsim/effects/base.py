@@ -187,8 +187,23 @@ def fixed_pattern_map(setup: SceneSetup, stream: str) -> np.ndarray:
     return fixed_pattern_rng(setup, stream).standard_normal(setup.shape, dtype=np.float32)
 
 
-def isp_output_error(scene: Scene, name: str) -> Optional[str]:
-    """Why ``scene`` cannot have ISP effect ``name``: it needs 8-bit output (an ISP's)."""
-    if scene.camera.output not in ("gray8", "rgb8"):
-        return f"effects.{name}: acts on 8-bit output; set camera.output to 'gray8' or 'rgb8'"
-    return None
+def isp_effect(name: str, params: type[EffectParams], slot: str,
+               transform: Callable[[np.ndarray, Any], np.ndarray]) -> Effect:
+    """An ISP effect: ``transform(image, params)`` on the frame's 8-bit output, in ``slot``.
+
+    Refused (naming the field) unless ``camera.output`` is ``gray8`` or ``rgb8``.
+    """
+
+    def check(scene: Scene, given: EffectParams) -> Optional[str]:
+        if scene.camera.output not in ("gray8", "rgb8"):
+            return f"effects.{name}: acts on 8-bit output; set camera.output to 'gray8' or 'rgb8'"
+        return None
+
+    def build_stage(setup: SceneSetup, given: EffectParams) -> StageRun:
+        def run(state: FrameState) -> None:
+            state.image = transform(state.image, given)
+
+        return run
+
+    return Effect(name=name, params=params, slot=slot, build_stage=build_stage, check=check,
+                  reads=("state.image",), writes=("state.image",))

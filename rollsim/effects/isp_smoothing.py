@@ -9,17 +9,11 @@ stage runs on the 8-bit image (:func:`rollsim.isp.smooth`); a step edge's
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+import numpy as np
 from pydantic import Field
 
-from rollsim.effects.base import Effect, EffectParams, StageRun, isp_output_error
+from rollsim.effects.base import EffectParams, isp_effect
 from rollsim.isp import smooth
-
-if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
-    from rollsim.scene.model import Scene
 
 
 class IspSmoothing(EffectParams):
@@ -30,16 +24,8 @@ class IspSmoothing(EffectParams):
     sigma_cols_px: float = Field(0.0, ge=0, le=50)
 
 
-def check(scene: Scene, params: IspSmoothing) -> str | None:
-    return isp_output_error(scene, "isp_smoothing")
+def apply(image: np.ndarray, params: IspSmoothing) -> np.ndarray:
+    return smooth(image, params.sigma_rows_px, params.sigma_cols_px)
 
 
-def build_stage(setup: SceneSetup, params: IspSmoothing) -> StageRun:
-    def run(state: FrameState) -> None:
-        state.image = smooth(state.image, params.sigma_rows_px, params.sigma_cols_px)
-
-    return run
-
-
-EFFECT = Effect(name="isp_smoothing", params=IspSmoothing, slot="denoise", build_stage=build_stage, check=check,
-                reads=("state.image",), writes=("state.image",))
+EFFECT = isp_effect("isp_smoothing", IspSmoothing, "denoise", apply)

@@ -8,17 +8,11 @@ app or a video's I-frames.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+import numpy as np
 from pydantic import Field
 
-from rollsim.effects.base import Effect, EffectParams, StageRun, isp_output_error
+from rollsim.effects.base import EffectParams, isp_effect
 from rollsim.isp import jpeg_round_trip
-
-if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
-    from rollsim.scene.model import Scene
 
 
 class Jpeg(EffectParams):
@@ -27,16 +21,8 @@ class Jpeg(EffectParams):
     quality: int = Field(90, ge=1, le=100)
 
 
-def check(scene: Scene, params: Jpeg) -> str | None:
-    return isp_output_error(scene, "jpeg")
+def apply(image: np.ndarray, params: Jpeg) -> np.ndarray:
+    return jpeg_round_trip(image, params.quality)
 
 
-def build_stage(setup: SceneSetup, params: Jpeg) -> StageRun:
-    def run(state: FrameState) -> None:
-        state.image = jpeg_round_trip(state.image, params.quality)
-
-    return run
-
-
-EFFECT = Effect(name="jpeg", params=Jpeg, slot="compress", build_stage=build_stage, check=check,
-                reads=("state.image",), writes=("state.image",))
+EFFECT = isp_effect("jpeg", Jpeg, "compress", apply)

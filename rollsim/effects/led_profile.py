@@ -16,6 +16,7 @@ from pydantic import Field
 from rollsim.effects.base import Effect, EffectParams
 from rollsim.optics.emitter import profiled_light, radial_table_light
 from rollsim.optics.footprint import led_rows_from_coverage
+from rollsim.validation import unit_table_error
 
 if TYPE_CHECKING:
     from rollsim.render.setup import SceneSetup
@@ -40,14 +41,11 @@ class LedProfile(EffectParams):
 
 def radial_table_error(table) -> str | None:
     """Why ``table`` is not a usable radial profile, or None."""
-    pts = np.asarray(table, dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
-        return "needs at least two [radius, radiance] pairs"
-    if not np.all(np.isfinite(pts)):
-        return "has a value that is not a finite number"
-    if pts[0, 0] != 0.0 or pts[-1, 0] != 1.0 or np.any(np.diff(pts[:, 0]) <= 0):
-        return "radii must rise strictly from 0 to 1"
-    if np.any(pts[:, 1] < 0) or not np.any(pts[:, 1] > 0):
+    why = unit_table_error(table, "radius", "radiance")
+    if why:
+        return why
+    radiances = np.asarray(table, dtype=np.float64)[:, 1]
+    if np.any(radiances < 0) or not np.any(radiances > 0):
         return "radiances must be >= 0 and not all 0"
     return None
 

@@ -9,17 +9,11 @@ of f cycles per pixel it multiplies the amplitude by
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
+import numpy as np
 from pydantic import Field
 
-from rollsim.effects.base import Effect, EffectParams, StageRun, isp_output_error
+from rollsim.effects.base import EffectParams, isp_effect
 from rollsim.isp import sharpen
-
-if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
-    from rollsim.scene.model import Scene
 
 
 class Sharpening(EffectParams):
@@ -30,16 +24,8 @@ class Sharpening(EffectParams):
     sigma_px: float = Field(1.0, gt=0, le=20)
 
 
-def check(scene: Scene, params: Sharpening) -> str | None:
-    return isp_output_error(scene, "sharpening")
+def apply(image: np.ndarray, params: Sharpening) -> np.ndarray:
+    return sharpen(image, params.amount, params.sigma_px)
 
 
-def build_stage(setup: SceneSetup, params: Sharpening) -> StageRun:
-    def run(state: FrameState) -> None:
-        state.image = sharpen(state.image, params.amount, params.sigma_px)
-
-    return run
-
-
-EFFECT = Effect(name="sharpening", params=Sharpening, slot="sharpen", build_stage=build_stage, check=check,
-                reads=("state.image",), writes=("state.image",))
+EFFECT = isp_effect("sharpening", Sharpening, "sharpen", apply)

@@ -43,6 +43,7 @@ from rollsim.fit.measure import (
 from rollsim.fit.stripes import StripeFit, fit_stripes
 from rollsim.isp import gaussian_kernel
 from rollsim.scene.model import Scene
+from rollsim.sensor.adc import full_scale_electrons
 
 # Radial profile bins (fractions of the radius) and the least variation worth an effect.
 PROFILE_BINS = 8
@@ -50,6 +51,8 @@ PROFILE_MIN_VARIATION = 0.05
 # Below these the fit leaves the effect out (a smaller figure is the estimator's noise).
 MIN_SMOOTHING_ROWS = 0.3
 MIN_GAMMA_CHANGE = 0.05
+# The LED's halo (blur, glare) reaches this many radii from its centre: the background lies beyond.
+HALO_RADII = 1.8
 # 8-bit levels this close to 0 or 255 are clipped in part and left out of the noise fit.
 CLIP_MARGIN = 8
 
@@ -94,7 +97,7 @@ class CameraFit:
 # ------------------------------------------------------------------ helpers
 
 
-def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float = 1.8) -> tuple[slice, slice]:
+def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float = HALO_RADII) -> tuple[slice, slice]:
     """The largest rectangle of whole rows or whole columns clear of the LED and its halo."""
     h, w = shape
     top = int(max(0, math.floor(disk.centre_y_px - margin_radii * disk.radius_px)))
@@ -107,6 +110,12 @@ def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float 
     if area < 256:
         raise ValueError("the LED fills the frame: no background to measure the noise on")
     return block
+
+
+def gain_per_full_scale(scene: Scene) -> float:
+    """The camera's gain as a fraction of the ADC range (above black) per electron."""
+    cam = scene.camera
+    return 1.0 / full_scale_electrons(cam.adc_bits, cam.black_level_dn, cam.gain_dn_per_e_at_iso)
 
 
 def _slope(level: float | np.ndarray, gamma: float) -> np.ndarray:
@@ -123,6 +132,18 @@ def noise_gain(sigma_rows: float) -> float:
     """The variance a white noise keeps through the ISP's vertical Gaussian: Σk²."""
     kernel = gaussian_kernel(sigma_rows).astype(np.float64)
     return float(np.sum(kernel**2))
+
+
+def bright_rows_noise(levels: np.ndarray, variances: np.ndarray, keep: np.ndarray) -> tuple[float, float]:
+    """Temporal noise (8-bit levels) of the brightest quarter of the kept rows, and their mean level.
+
+    ``levels`` and ``variances`` are :func:`rollsim.fit.measure.level_noise_pairs`'s;
+    (0, 0) when no row is kept.
+    """
+    if not keep.any():
+        return 0.0, 0.0
+    top = keep & (levels >= np.percentile(levels[keep], 75))
+    return float(np.sqrt(np.mean(variances[top]))), float(np.mean(levels[top]))
 
 
 def photon_transfer(levels_lin: np.ndarray, variances_lin: np.ndarray) -> tuple[float, float, float, float]:
@@ -196,7 +217,7 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, start: StripeFit | No
     brightest = np.max(frames, axis=0)
     mean_frame = np.mean(frames, axis=0)
     disk = find_led_disk(brightest, float(np.median(mean_frame)))
-    background = background_level(mean_frame, disk_mask(shape, disk, 1.8))
+    background = background_level(mean_frame, disk_mask(shape, disk, HALO_RADII))
     rows, cols = central_band(disk, shape)
     profiles = [f[rows, cols].mean(axis=1) for f in frames]
     stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, disk.centre_y_px, disk.radius_px,
@@ -215,9 +236,7 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, start: StripeFit | No
     if usable.sum() < 3:
         raise ValueError("fewer than 3 rows of the LED are neither black nor saturated: no noise to fit")
     transfer = photon_transfer(lv[usable], var[usable])
-    unclipped = levels[usable[:-1]]
-    top = usable[:-1] & (levels >= np.percentile(unclipped, 75))
-    on_noise, on_level = float(np.sqrt(np.mean(variances[top]))), float(np.mean(levels[top]))
+    on_noise, on_level = bright_rows_noise(levels, variances, usable[:-1])
     row_lin = bg_noise.row_std * bg_slope / math.sqrt(keep)
     col_lin = column_pattern_std(mean_frame, *block, len(frames), bg_noise.pixel_std) * bg_slope
     brightest_lin = _linear(brightest, gamma)
@@ -247,10 +266,8 @@ def _direct(m: Measured, base: Scene) -> Parameters:
     read noise where the photon-transfer line is unusable: a slope or intercept
     that is not positive)."""
     a, b = m.transfer[:2]
-    cam = base.camera
-    base_k = cam.gain_dn_per_e_at_iso / (2**cam.adc_bits - 1 - cam.black_level_dn)
-    k_lin = b if b > 0 else base_k
-    read_lin = math.sqrt(a) if a > 0 else cam.read_noise_e * k_lin
+    k_lin = b if b > 0 else gain_per_full_scale(base)
+    read_lin = math.sqrt(a) if a > 0 else base.camera.read_noise_e * k_lin
     return Parameters(m.stripes.exposure_rows, m.stripes.smoothing_rows, m.stripes.gamma, k_lin,
                       read_lin, m.row_e_per_k, m.col_e_per_k)
 
@@ -330,13 +347,14 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         images, _ = render_frames(scene, len(frames))
         rendered = measure([np.asarray(im, dtype=np.float64) for im in images], clock_hz, start=target.stripes)
         params = _corrected(params, target, rendered)
-        scene = fitted_scene(base, shape, clock_hz, target, params, notes := [])
+        notes = []  # the notes of the last scene only
+        scene = fitted_scene(base, shape, clock_hz, target, params, notes)
     return CameraFit(_estimates(target, params, scene), scene, target, notes)
 
 
 def _estimates(m: Measured, p: Parameters, scene: Scene) -> dict:
     cam = scene.camera
-    a, b, a_sd, b_sd = m.transfer
+    b, b_sd = m.transfer[1], m.transfer[3]
     rel_b = b_sd / b if b > 0 else None
     t_row_us = m.row_time_s * 1e6
     return {
@@ -378,9 +396,7 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     row_time_s, disk, stripes, background = m.row_time_s, m.disk, m.stripes, m.background
     gamma = p.gamma if abs(p.gamma - 1.0) >= MIN_GAMMA_CHANGE else 1.0
     smoothing = p.smoothing_rows if p.smoothing_rows >= MIN_SMOOTHING_ROWS else 0.0
-    base_cam = base.camera
-    scale_dn = 2**base_cam.adc_bits - 1 - base_cam.black_level_dn
-    iso = base_cam.base_iso * p.k_lin * scale_dn / base_cam.gain_dn_per_e
+    iso = base.camera.iso * p.k_lin / gain_per_full_scale(base)  # the gain is proportional to the ISO
     read_e, row_e, col_e, profile = p.read_lin / p.k_lin, p.row_lin / p.k_lin, p.col_lin / p.k_lin, m.profile
     frame_period_s = 1.0 / camera["frame_rate_hz"]
     exposure_us = min(p.exposure_rows * row_time_s, frame_period_s - shape[0] * row_time_s) * 1e6
@@ -413,7 +429,7 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     # Ambient light from the background's linear level; the LED from its ON level.
     sized = scene_from_dict(data, "fitted scene")
     cam = sized.camera
-    k_lin = cam.gain_dn_per_e_at_iso / (2**cam.adc_bits - 1 - cam.black_level_dn)
+    k_lin = gain_per_full_scale(sized)
     bg_rate, _ = ambient_electron_rates(sized)
     wanted_bg_e = float(_linear(background, gamma)) / k_lin
     if bg_rate > 0:
@@ -465,12 +481,12 @@ def output_noise(frames: Sequence[np.ndarray], fit: CameraFit) -> dict:
     """The temporal and fixed-pattern noise of frames in the fit's regions, 8-bit levels."""
     bg = temporal_noise(frames, *fit.background_block)
     levels, variances = level_noise_pairs(frames, *fit.band)
-    top = levels >= np.percentile(levels, 75)
+    bright_noise, _ = bright_rows_noise(levels, variances, np.ones(levels.size, dtype=bool))
     mean_frame = np.mean(frames, axis=0)
     block_rows, block_cols = fit.background_block
     return {
         "temporal_background": bg.pixel_std,
-        "temporal_led_on": float(np.sqrt(np.mean(variances[top]))) if top.any() else 0.0,
+        "temporal_led_on": bright_noise,
         "row_temporal_background": bg.row_std,
         "column_pattern_background": column_pattern_std(mean_frame, block_rows, block_cols, len(frames),
                                                         bg.pixel_std),

@@ -31,11 +31,11 @@ def gaussian_kernel(sigma_px: float) -> np.ndarray:
     return (kernel / kernel.sum()).astype(np.float32)
 
 
-def _filtered(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> np.ndarray:
-    """``image`` convolved with the separable Gaussian, float32 (edges mirrored)."""
+def _filtered(values: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> np.ndarray:
+    """float32 ``values`` convolved with the separable Gaussian, float32 (edges mirrored)."""
     import cv2
 
-    return cv2.sepFilter2D(image.astype(np.float32), cv2.CV_32F, gaussian_kernel(sigma_cols_px),
+    return cv2.sepFilter2D(values, cv2.CV_32F, gaussian_kernel(sigma_cols_px),
                            gaussian_kernel(sigma_rows_px), borderType=cv2.BORDER_REFLECT_101)
 
 
@@ -59,7 +59,7 @@ def smooth(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float = 0.0) 
     -------
     ndarray of uint8, the shape of ``image``
     """
-    return _to_uint8(_filtered(image, sigma_rows_px, sigma_cols_px))
+    return _to_uint8(_filtered(image.astype(np.float32), sigma_rows_px, sigma_cols_px))
 
 
 def sharpen(image: np.ndarray, amount: float, sigma_px: float) -> np.ndarray:
@@ -80,6 +80,6 @@ def sharpen(image: np.ndarray, amount: float, sigma_px: float) -> np.ndarray:
     if not (np.isfinite(amount) and amount >= 0):
         raise ValueError(f"amount must be a finite number >= 0, got {amount!r}")
     values = image.astype(np.float32)
-    detail = values - _filtered(image, sigma_px, sigma_px)
+    detail = values - _filtered(values, sigma_px, sigma_px)
     values += np.float32(amount) * detail
     return _to_uint8(values)

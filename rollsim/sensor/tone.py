@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rollsim.validation import unit_table_error
+
 __all__ = ["ToneCurve", "srgb_encode", "validate_table"]
 
 SRGB_LINEAR_LIMIT = 0.0031308  # IEC 61966-2-1: below this the encoding is linear
@@ -41,16 +43,10 @@ def validate_table(points) -> str | None:
     The inputs run strictly up from 0 to 1; the outputs lie in [0, 1] and
     never fall (a tone curve keeps the order of brightness).
     """
-    pts = np.asarray(points, dtype=np.float64)
-    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
-        return "needs at least two [input, output] pairs"
-    if not np.all(np.isfinite(pts)):
-        return "has a value that is not a finite number"
-    x, y = pts[:, 0], pts[:, 1]
-    if x[0] != 0.0 or x[-1] != 1.0:
-        return "inputs must start at 0 and end at 1"
-    if np.any(np.diff(x) <= 0):
-        return "inputs must increase strictly"
+    why = unit_table_error(points, "input", "output")
+    if why:
+        return why
+    y = np.asarray(points, dtype=np.float64)[:, 1]
     if np.any((y < 0) | (y > 1)):
         return "outputs must lie in [0, 1]"
     if np.any(np.diff(y) < 0):
