@@ -16,11 +16,13 @@ import cv2
 import numpy as np
 
 from rollsim.protocol import PhyFormat, max_run_length
+from rollsim.protocol.linecode import chips_per_symbol
 from rollsim.protocol.frames import frame_index_from_name
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
+from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
 from decoder.profile import RowProfile, row_profile
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
 from decoder.region import block_means, choose_factor, detect_regions
@@ -80,6 +82,56 @@ def coarse_rows_per_chip(profile: RowProfile, min_contrast: float = MIN_CONTRAST
     window = max(31, 2 * (n // 20) + 1)
     levels = binarize_profile(profile.values, profile.noise, window, 0.0, min_contrast)
     return estimate_rows_per_chip(find_runs(levels.level, levels.q))
+
+
+def profile_rows_per_chip(profile: RowProfile, phy: PhyFormat, min_contrast: float = MIN_CONTRAST_SIGMA) -> float | None:
+    """Rows per chip of a profile whose chip pitch is unknown (see :mod:`decoder.pitch`).
+
+    The candidates (the edge-energy spectrum's and the run lengths') are
+    each fitted as a chip grid to the edges of the profile binarised at the
+    finest of them; the longest grid the edges lie on is the pitch
+    (:func:`decoder.pitch.choose_grid`).
+
+    Returns
+    -------
+    float or None
+        None when no candidate's grid fits the edges.
+    """
+    period = edge_energy_period_rows(profile.values)
+    coarse = coarse_rows_per_chip(profile, min_contrast)
+    if period is None and coarse is None:
+        return None
+    # Binarised at half the strongest line's period (or the run lengths'
+    # pitch, if finer), the profile keeps every edge that a grid must explain.
+    finest = min(p for p in (None if period is None else max(0.5 * period, MIN_ROWS_PER_CHIP), coarse) if p is not None)
+    _, runs = binarise_at_pitch(profile, phy, finest, min_contrast)
+    symbol_chips = chips_per_symbol(phy.line_code)[0]
+    spectral = [] if period is None else pitch_candidates(period, symbol_chips, len(profile) / 4.0)
+    candidates = merge_candidates([*spectral, coarse])
+    chosen = choose_grid((guess, edge_grid_fit(runs, guess)) for guess in candidates)
+    return None if chosen is None else chosen.rows_per_chip
+
+
+def binarise_at_pitch(profile: RowProfile, phy: PhyFormat, rows_per_chip: float,
+                      min_contrast: float = MIN_CONTRAST_SIGMA) -> tuple[Binarized, Runs]:
+    """Levels and runs of a profile, binarised for a chip pitch (rows).
+
+    The envelope window and smoothing suit the pitch; the runs have their
+    edge bias corrected and glitches shorter than half a chip merged.
+    """
+    levels = binarize_profile(
+        profile.values,
+        profile.noise,
+        envelope_window_rows(phy, rows_per_chip),
+        smooth_rows=smoothing_rows(profile, rows_per_chip),
+        min_contrast=min_contrast,
+        min_run_rows=0.5 * rows_per_chip,
+    )
+    runs = find_runs(levels.level, levels.q)
+    # Before glitches are merged: under saturation a lone OFF chip can look
+    # shorter than half a chip until the edge bias is taken out.
+    runs = merge_glitches(correct_edge_bias(runs, edge_bias_chips(runs, rows_per_chip), rows_per_chip), rows_per_chip)
+    return levels, runs
 
 
 def led_edges(runs: Runs, levels: Binarized, pitch: float):
@@ -196,21 +248,10 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     # shortest run pattern cannot.
     if len(profile) < MIN_PROFILE_ROWS:
         return [], None, None
-    pitch = rows_per_chip if rows_per_chip is not None else coarse_rows_per_chip(profile, min_contrast)
+    pitch = rows_per_chip if rows_per_chip is not None else profile_rows_per_chip(profile, phy, min_contrast)
     if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
         return [], None, None
-    levels = binarize_profile(
-        profile.values,
-        profile.noise,
-        envelope_window_rows(phy, pitch),
-        smooth_rows=smoothing_rows(profile, pitch),
-        min_contrast=min_contrast,
-        min_run_rows=0.5 * pitch,
-    )
-    runs = find_runs(levels.level, levels.q)
-    # Before glitches are merged: under saturation a lone OFF chip can look
-    # shorter than half a chip until the edge bias is taken out.
-    runs = merge_glitches(correct_edge_bias(runs, edge_bias_chips(runs, pitch), pitch), pitch)
+    levels, runs = binarise_at_pitch(profile, phy, pitch, min_contrast)
     edges = led_edges(runs, levels, pitch)
     if edges is None:
         return [], levels, None
@@ -310,8 +351,25 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
     frame = as_frame_array(image)
     pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz is not None and row_time_s is not None else None
     blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
-    for region in detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch):
+    regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch)
+    if pitch is None:
+        # One row time and one clock make one chip pitch for the whole frame:
+        # estimate it from the regions found without it, then find the
+        # regions again as if it had been given.
+        pitch = frame_rows_per_chip([row_profile(blocks, region) for region in regions], phy)
+        if pitch is not None:
+            regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch)
+    for region in regions:
         yield blocks.block_col_span(region.block_cols), row_profile(blocks, region), pitch
+
+
+def frame_rows_per_chip(profiles: Iterable[RowProfile], phy: PhyFormat) -> float | None:
+    """One chip pitch (rows) for a frame: the median of its profiles' estimates.
+
+    None when no profile gives one (:func:`profile_rows_per_chip`).
+    """
+    found = [p for p in (profile_rows_per_chip(profile, phy) for profile in profiles) if p is not None]
+    return float(np.median(found)) if found else None
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
 from decoder.region import block_means, choose_factor, detect_regions
+from decoder.pitch import peak_period_rows
 from decoder.timing import find_runs
 
 # Fewer edges than this in a frame give no estimate from it.
@@ -72,20 +73,7 @@ def spectral_period_rows(values: np.ndarray, min_period: float = 2.5) -> float |
         return None
     # Remove the slow level (vignetting, footprint) before looking for stripes.
     detrended = values - uniform_filter1d(values, max(3, n // 8), mode="nearest")
-    size = 1 << int(np.ceil(np.log2(8 * n)))
-    spectrum = np.abs(np.fft.rfft(detrended * np.hanning(n), size))
-    freqs = np.fft.rfftfreq(size)
-    band = (freqs >= 4.0 / n) & (freqs <= 1.0 / min_period)
-    if band.sum() < 3:
-        return None
-    k = int(np.flatnonzero(band)[np.argmax(spectrum[band])])
-    if k <= 0 or k >= spectrum.size - 1:
-        return 1.0 / freqs[k]
-    # Parabolic interpolation of the log magnitude around the peak.
-    a, b, c = np.log(spectrum[k - 1 : k + 2] + 1e-300)
-    denom = a - 2.0 * b + c
-    shift = 0.5 * (a - c) / denom if denom < 0 else 0.0
-    return 1.0 / ((k + float(np.clip(shift, -0.5, 0.5))) * (freqs[1] - freqs[0]))
+    return peak_period_rows(detrended, min_period, n / 4.0)
 
 
 def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, float, int] | None:
