@@ -231,3 +231,9 @@ def decode_directory(
                     progress(done)
         staged.write(targets[1], json.dumps(summary.as_dict(), indent=2, allow_nan=False) + "\n")
     return summary
+
+
+# rollsim.decode(...) is the Python API's function (rollsim.api).
+from rollsim.callable_module import make_callable  # noqa: E402
+
+make_callable(__name__)

@@ -437,3 +437,9 @@ def format_summary(summary: dict) -> str:
         + ("n/a" if summary["false_decodes_per_1000_frames"] is None else f"{summary['false_decodes_per_1000_frames']:.2f}"),
     ]
     return "\n".join(lines)
+
+
+# rollsim.evaluate(...) is the Python API's function (rollsim.api).
+from rollsim.callable_module import make_callable  # noqa: E402
+
+make_callable(__name__)

@@ -229,3 +229,9 @@ def format_calibration(result: dict) -> str:
         lines += ["", "RP goodput (bit/s): fitted MMBP (event simulator) against the trace replayed",
                   format_table(rows, ("r", "MMBP", "replayed", "difference"))]
     return "\n".join(lines)
+
+
+# rollsim.calibrate(...) is the Python API's function (rollsim.api).
+from rollsim.callable_module import make_callable  # noqa: E402
+
+make_callable(__name__)
