@@ -315,16 +315,6 @@ def render(scene: Union[str, Path, "Scene"], n_frames: Optional[int] = None, see
 Decoder = Callable[[np.ndarray, Any], Iterable]
 
 
-def _as_record(found, frame_index: int) -> dict:
-    """A decoder's record as a ``decoded.jsonl`` line, numbered with its frame's index.
-
-    A decoder sees one image and cannot know its index, so any ``frame`` it
-    gives is replaced.
-    """
-    record = found.to_record() if hasattr(found, "to_record") else dict(found)
-    return {"frame": int(frame_index), **{k: v for k, v in record.items() if k != "frame"}}
-
-
 def rollsim_decoder(image: np.ndarray, settings) -> list:
     """rollsim's own decoder (:func:`decoder.decode_frame`) as a ``decoder=`` callable."""
     from decoder import decode_frame
@@ -347,7 +337,8 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
         ``decoder(image, settings) -> iterable of records``, ``settings`` a
         :class:`rollsim.decode.DecodeSettings` (``phy``, ``clock_hz``,
         ``row_time_s``); a record is a :class:`decoder.DecodedPhySdu` or a
-        dict with the fields of ``decoded.jsonl``. Default: rollsim's.
+        dict with the fields of ``decoded.jsonl`` (checked against its
+        schema, :mod:`rollsim.records`). Default: rollsim's.
 
     Returns
     -------
@@ -355,6 +346,7 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
         One record per PHY-SDU found, in frame order.
     """
     from rollsim.decode import settings_from_scene
+    from rollsim.records import as_decoded_record
 
     chosen = scene if scene is not None else getattr(frames, "scene", None)
     if chosen is None:
@@ -364,7 +356,7 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
     records: list[dict] = []
     for number, item in enumerate(frames):
         index, image = (item.index, item.image) if isinstance(item, Frame) else (number, np.asarray(item))
-        records.extend(_as_record(found, index) for found in run(image, settings))
+        records.extend(as_decoded_record(found, index) for found in run(image, settings))
     return records
 
 

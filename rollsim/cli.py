@@ -234,6 +234,13 @@ def cmd_decode(args) -> int:
     run_dir = Path(args.dir)
     n_files = len(frame_files(run_dir))  # first: a missing directory is named as such
     settings = _decode_settings(args, run_dir)
+    if args.decoder is not None:
+        from dataclasses import replace
+
+        from rollsim.decode import load_decoder
+
+        load_decoder(args.decoder)  # here first: a wrong name fails before any frame
+        settings = replace(settings, decoder=args.decoder)
     workers = args.workers or _default_workers()
     with tqdm(total=n_files, unit="frame", desc="decode", disable=args.quiet or None) as bar:
         summary = decode_directory(
@@ -255,10 +262,17 @@ def cmd_evaluate(args) -> int:
 
     if is_staging(Path(args.dir)):
         raise RollsimError(f"{args.dir}: the staging area of an unfinished run; evaluate a finished render directory")
-    result = evaluate_directory(Path(args.dir), force=args.force)
+    decoded = Path(args.decoded) if args.decoded is not None else None
+    against = Path(args.against) if args.against is not None else None
+    result = evaluate_directory(Path(args.dir), force=args.force, decoded_file=decoded, against=against)
     for warning in result.summary.get("warnings", []):
         print(f"rollsim: warning: {warning}", file=sys.stderr)
     print(format_summary(result.summary))
+    if against is not None:
+        from rollsim.compare import format_comparison
+
+        print()
+        print(format_comparison(json.loads((Path(args.dir) / "comparison.json").read_text(encoding="utf-8"))))
     return EXIT_OK
 
 
@@ -650,6 +664,9 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--row-time-us", type=float, default=None,
                    help="row time in us (overrides the scene; without a scene and without it, estimated from the frames)")
     p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
+    p.add_argument("--decoder", metavar="MODULE:FUNCTION", default=None,
+                   help="a decoder of your own: FUNCTION(image, settings) returning records of decoded.jsonl's "
+                        "schema (default: rollsim's decoder)")
     _add_force(p, "existing decoded.jsonl and decode.json")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
@@ -657,7 +674,13 @@ def _add_pixel_commands(sub) -> None:
 
     p = sub.add_parser("evaluate", help="outcome of every emitted PHY-SDU against the truth: DIR/outcomes.csv, DIR/evaluation.json")
     p.add_argument("dir", metavar="DIR", help="a rendered and decoded directory")
-    _add_force(p, "existing outcomes.csv and evaluation.json")
+    p.add_argument("--decoded", metavar="FILE.jsonl", default=None,
+                   help="the decoded PHY-SDUs to score, any decoder's (default: DIR/decoded.jsonl); "
+                        "checked line by line against rollsim/schemas/decoded-phy-sdu.schema.json")
+    p.add_argument("--against", metavar="FILE.jsonl", default=None,
+                   help="a second decoder's PHY-SDUs on the same frames: compare outcome by outcome "
+                        "into DIR/comparison.json")
+    _add_force(p, "existing outcomes.csv, evaluation.json and comparison.json")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("estimate-row-time", help="row time of a camera from frames of a square-wave LED")
@@ -794,6 +817,8 @@ def _add_bench_commands(sub) -> None:
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: every bundled paper-, stress- and effect- scene)")
     p.add_argument("--frames", type=_positive_int, default=100, help="frames per scene (default 100)")
     p.add_argument("--workers", type=_positive_int, default=2, help="scenes in parallel (default 2)")
+    p.add_argument("--decoder", metavar="MODULE:FUNCTION", default=None,
+                   help="also decode the same frames with this decoder and compare it with rollsim's")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown")
     _add_json_file(p)
     _add_force(p, "existing output files")

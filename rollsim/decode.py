@@ -52,12 +52,16 @@ class DecodeSettings:
         Chip rate in Hz.
     row_time_s : float or None
         Row time in seconds. Without it (or without ``clock_hz``) the chip
-        pitch is estimated from each profile's run lengths.
+        pitch is estimated from the frame (:mod:`decoder.pitch`).
+    decoder : str or None
+        ``package.module:function`` of a decoder other than rollsim's
+        (:func:`load_decoder`); None for rollsim's.
     """
 
     phy: PhyFormat
     clock_hz: Optional[float] = None
     row_time_s: Optional[float] = None
+    decoder: Optional[str] = None
 
     def __post_init__(self):
         for name, value in (("clock_hz", self.clock_hz), ("row_time_s", self.row_time_s)):
@@ -65,7 +69,8 @@ class DecodeSettings:
                 raise RollsimError(f"{name} = {value}: must be a finite number > 0")
 
     def as_dict(self) -> dict:
-        return {"phy": asdict(self.phy), "clock_hz": self.clock_hz, "row_time_s": self.row_time_s}
+        return {"phy": asdict(self.phy), "clock_hz": self.clock_hz, "row_time_s": self.row_time_s,
+                "decoder": self.decoder or "rollsim"}
 
 
 @dataclass
@@ -144,10 +149,73 @@ def frame_pixel_limit(workers: int = 1) -> int:
     return max(1, min(MAX_FRAME_PIXELS, memory_budget_bytes() // (per_pixel * max(1, workers))))
 
 
+def load_decoder(spec: str) -> Callable:
+    """The decoder ``package.module:function``: ``function(image, settings) -> iterable of records``.
+
+    Raises
+    ------
+    RollsimError
+        One line naming ``spec`` and what is wrong: no ``:``, a module that
+        cannot be imported, no such function, or not callable.
+    """
+    import importlib
+    import sys
+
+    module_name, sep, name = str(spec).partition(":")
+    if not sep or not module_name or not name:
+        raise RollsimError(f"--decoder {spec}: expected package.module:function")
+    # As other module:function loaders do, the working directory is searched
+    # too, so a decoder in a file beside the user's frames is found.
+    if os.getcwd() not in sys.path:
+        sys.path.append(os.getcwd())
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as exc:  # any error of the user's module is reported, not raised
+        raise RollsimError(f"--decoder {spec}: cannot import {module_name} ({type(exc).__name__}: {exc})") from None
+    function = getattr(module, name, None)
+    if function is None:
+        raise RollsimError(f"--decoder {spec}: {module_name} has no {name}")
+    if not callable(function):
+        raise RollsimError(f"--decoder {spec}: {name} is not callable")
+    return function
+
+
+def _decode_chunk_with(chunk: list[tuple[int, str]], settings: DecodeSettings,
+                       max_pixels: int) -> list[tuple[int, list[dict], Optional[dict]]]:
+    """:func:`_decode_chunk` for a decoder other than rollsim's (``settings.decoder``)."""
+    from decoder import FrameDecode, FrameError, read_frame
+
+    from rollsim.protocol.frames import frame_index_from_name
+    from rollsim.records import as_decoded_record
+
+    function = load_decoder(str(settings.decoder))
+    out: list[tuple[int, list[dict], Optional[dict]]] = []
+    for position, source in chunk:
+        index = frame_index_from_name(source, position)
+        try:
+            image = read_frame(source, max_pixels)
+        except FrameError as exc:
+            out.append((index, [], FrameDecode(index, source, (), str(exc)).error_record()))
+            continue
+        try:
+            found = list(function(image, settings))
+        except Exception as exc:  # the user's decoder failed on this frame: say where, and stop
+            raise RollsimError(f"--decoder {settings.decoder}: failed on {source} "
+                               f"({type(exc).__name__}: {exc})") from None
+        try:
+            records = [as_decoded_record(f, index) for f in found]
+        except RollsimError as exc:
+            raise RollsimError(f"--decoder {settings.decoder}: {source}: {exc}") from None
+        out.append((index, records, None))
+    return out
+
+
 def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings,
                   max_pixels: int) -> list[tuple[int, list[dict], Optional[dict]]]:
     from decoder import decode_frames
 
+    if settings.decoder is not None:
+        return _decode_chunk_with(chunk, settings, max_pixels)
     first = chunk[0][0]
     out = []
     for result in decode_frames([path for _, path in chunk], settings.phy, settings.clock_hz, settings.row_time_s,

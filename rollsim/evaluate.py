@@ -44,8 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rollsim.budget import check_file_size
 from rollsim.errors import RollsimError, clip, short_repr
+from rollsim.records import read_decoded, read_jsonl
 
 OUTCOMES = ("ok", "undetected_error", "corrupted", "missed", "not_visible")
 OUTCOME_COLUMNS = ("tx", "sequence", "outcome", "success", "frame", "fully_visible", "decodes", "start_s", "end_s")
@@ -67,28 +67,6 @@ class Evaluation:
     outcomes: list
     false_decodes: list
     summary: dict
-
-
-def read_jsonl(path: Path) -> list[dict]:
-    """Records of a JSON-lines file, with one-line errors naming file and line."""
-    path = Path(path)
-    # Parsed JSON takes about ten times the bytes of its text.
-    check_file_size(path, 10)
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except FileNotFoundError:
-        raise RollsimError(f"{path}: not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RollsimError(f"{path}: cannot read ({exc})") from None
-    records = []
-    for number, line in enumerate(lines, start=1):
-        if not line.strip():
-            continue
-        try:
-            records.append(json.loads(line))
-        except json.JSONDecodeError as exc:
-            raise RollsimError(f"{path}: line {number}: not valid JSON ({exc.msg})") from None
-    return records
 
 
 def _truth_table(truth: list[dict]) -> dict[str, np.ndarray]:
@@ -242,7 +220,8 @@ def summarise(outcomes: list[dict], false_decodes: list, n_frames: int) -> dict:
     }
 
 
-def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
+def evaluate_directory(run_dir: Path, force: bool = False, decoded_file: Path | None = None,
+                       against: Path | None = None) -> Evaluation:
     """Evaluate a decoded render directory; write ``outcomes.csv`` and ``evaluation.json``.
 
     Reads ``truth.jsonl``, ``decoded.jsonl``, ``scene.resolved.yaml`` and the
@@ -256,6 +235,14 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
     run_dir : Path
     force : bool
         Replace existing outputs; without it they are never overwritten.
+    decoded_file : Path, optional
+        The decoded PHY-SDUs to score, default ``run_dir/decoded.jsonl``:
+        any decoder's, checked line by line against the schema
+        (:mod:`rollsim.records`).
+    against : Path, optional
+        A second decoder's ``decoded.jsonl``, scored on the same frames and
+        compared outcome by outcome (:func:`rollsim.compare.compare_evaluations`)
+        into ``run_dir/comparison.json``, committed with the others.
 
     Raises
     ------
@@ -263,7 +250,39 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
         A missing, malformed or inconsistent input file (named, with the
         line), or an existing output without ``force``.
     """
+    from rollsim.compare import compare_evaluations
     from rollsim.outputs import check_file_targets, staged_files
+
+    run_dir = Path(run_dir)
+    targets = [run_dir / "outcomes.csv", run_dir / "evaluation.json"]
+    if against is not None:
+        targets.append(run_dir / "comparison.json")
+    if run_dir.is_dir():
+        check_file_targets(targets, force)
+    result, unreadable = score_directory(run_dir, decoded_file)
+    report = {"summary": result.summary, "false_decodes": result.false_decodes, "unreadable": unreadable}
+    comparison = None
+    if against is not None:
+        names = (str(decoded_file or run_dir / "decoded.jsonl"), str(against))
+        comparison = compare_evaluations(result, score_directory(run_dir, Path(against))[0], names)
+    with staged_files(targets, force) as files:
+        files.write(targets[0], outcomes_csv(result.outcomes))
+        files.write(targets[1], json.dumps(report, indent=2, allow_nan=False) + "\n")
+        if comparison is not None:
+            files.write(targets[2], json.dumps(comparison, indent=2, allow_nan=False) + "\n")
+    return result
+
+
+def score_directory(run_dir: Path, decoded_file: Path | None = None) -> tuple[Evaluation, list]:
+    """Read and check a render directory and a decoded file, and evaluate them (writing nothing).
+
+    Returns
+    -------
+    (Evaluation, list of dict)
+        The evaluation (its summary with ``frames_unreadable``,
+        ``consistent`` and ``warnings``) and the frames the decoder could
+        not read (from ``decode.json``, for the run's own decode).
+    """
     from rollsim.scene import load_scene
     from rollsim.transmitter import transmitter_from_scene
 
@@ -273,38 +292,34 @@ def evaluate_directory(run_dir: Path, force: bool = False) -> Evaluation:
     scene_file = run_dir / "scene.resolved.yaml"
     if not scene_file.exists():
         raise RollsimError(f"{scene_file}: not found; evaluate needs a directory written by `rollsim render`")
-    decoded_file = run_dir / "decoded.jsonl"
+    own_decode = decoded_file is None
+    decoded_file = run_dir / "decoded.jsonl" if decoded_file is None else Path(decoded_file)
     if not decoded_file.exists():
-        raise RollsimError(f"{decoded_file}: not found; run `rollsim decode {run_dir}` first")
-    targets = (run_dir / "outcomes.csv", run_dir / "evaluation.json")
-    check_file_targets(targets, force)
+        hint = f"; run `rollsim decode {run_dir}` first" if own_decode else ""
+        raise RollsimError(f"{decoded_file}: not found{hint}")
     scene = load_scene(scene_file)
     truth_file = run_dir / "truth.jsonl"
     truth = read_jsonl(truth_file)
     check_records(truth, truth_file, TRUTH_FIELDS)
     for record in truth:
         check_records(record["sdus"], truth_file, TRUTH_SDU_FIELDS, f"frame {record['frame']}: PHY-SDU")
-    decoded = read_jsonl(decoded_file)
-    check_records(decoded, decoded_file, DECODED_FIELDS)
-    decode_info = _decode_info(run_dir / "decode.json")
-    warnings = check_consistency(run_dir, truth, decoded, decode_info, scene.link.payload_bits)
+    decoded = read_decoded(decoded_file)
+    # decode.json describes the run's own decode, not another decoder's file.
+    decode_info = _decode_info(run_dir / "decode.json") if own_decode else {}
+    warnings = check_consistency(run_dir, truth, decoded, decode_info, scene.link.payload_bits, decoded_file)
     result = evaluate(truth, decoded, transmitter_from_scene(scene))
     unreadable = decode_info.get("unreadable", [])
     result.summary["frames_unreadable"] = len(unreadable)
     result.summary["consistent"] = not warnings
     result.summary["warnings"] = warnings
-    report = {"summary": result.summary, "false_decodes": result.false_decodes, "unreadable": unreadable}
-    with staged_files(targets, force) as files:
-        files.write(targets[0], outcomes_csv(result.outcomes))
-        files.write(targets[1], json.dumps(report, indent=2, allow_nan=False) + "\n")
-    return result
+    return result, unreadable
 
 
 _BITS = re.compile(r"^[01]*$")
 
 
 def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], decode_info: dict,
-                      payload_bits: int) -> list[str]:
+                      payload_bits: int, decoded_file: Path | None = None) -> list[str]:
     """Check that frames, truth and decoded records describe the same frames.
 
     Errors (one line naming the file and line): an empty truth, truth
@@ -322,7 +337,8 @@ def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], dec
     """
     from rollsim.protocol.frames import frame_index_from_name
 
-    truth_file, decoded_file = run_dir / "truth.jsonl", run_dir / "decoded.jsonl"
+    truth_file = run_dir / "truth.jsonl"
+    decoded_file = run_dir / "decoded.jsonl" if decoded_file is None else decoded_file
     if not truth:
         raise RollsimError(f"{truth_file}: empty; the render wrote no frame (re-render the directory)")
     frames = [record["frame"] for record in truth]
@@ -363,8 +379,6 @@ def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], dec
                 "their PHY-SDUs count as missed, so these figures are not those of the whole render"]
     return []
 # Fields matching needs, with their JSON types ("number": finite int or float).
-DECODED_FIELDS = {"frame": "int", "first_row": "number", "last_row": "number", "sequence": "int", "bits": "str",
-                  "check_ok": "bool"}
 TRUTH_FIELDS = {"frame": "int", "start_s": "number", "sdus": "list"}
 TRUTH_SDU_FIELDS = {"tx": "int", "sequence": "int", "bits": "str", "first_row_f": "number", "last_row_f": "number",
                     "fully_visible": "bool"}

@@ -40,10 +40,14 @@ class DecodedRun:
         the decoder reads the LED's stripes
         (:func:`decoder.stripe_row_fraction`, the measured ROI ratio), from
         the same decoding pass.
+    other_decoded : list of dict
+        With ``other_decoder`` (``package.module:function``, see
+        :func:`rollsim.decode.load_decoder`): its records of the same
+        frames, and ``other_decode_s`` its seconds per frame.
     """
 
-    def __init__(self, pipeline, measure_stripes: bool = False):
-        from rollsim.decode import settings_from_scene
+    def __init__(self, pipeline, measure_stripes: bool = False, other_decoder: str | None = None):
+        from rollsim.decode import load_decoder, settings_from_scene
 
         self.pipeline = pipeline
         self._settings = settings_from_scene(pipeline.setup.scene)
@@ -53,6 +57,9 @@ class DecodedRun:
         self.decode_s: list[float] = []
         self.measure_stripes = bool(measure_stripes)
         self.stripe_fractions: list[float] = []
+        self._other = load_decoder(other_decoder) if other_decoder is not None else None
+        self.other_decoded: list[dict] = []
+        self.other_decode_s: list[float] = []
 
     def step(self, index: int):
         """Render frame ``index``, time it, decode it; returns the rendered frame."""
@@ -75,13 +82,22 @@ class DecodedRun:
         self.render_s.append(middle - start)
         self.truth.append(frame.truth)
         self.decoded.extend(sdu.to_record() for sdu in found)
+        if self._other is not None:
+            from rollsim.records import as_decoded_record
+
+            start = time.perf_counter()
+            self.other_decoded.extend(as_decoded_record(f, index) for f in self._other(frame.image, settings))
+            self.other_decode_s.append(time.perf_counter() - start)
         return frame
 
-    def evaluation(self):
-        """The outcome of every emission of the frames stepped (:func:`rollsim.evaluate.evaluate`)."""
+    def evaluation(self, other: bool = False):
+        """The outcome of every emission of the frames stepped (:func:`rollsim.evaluate.evaluate`).
+
+        With ``other``, of the other decoder's records.
+        """
         from rollsim.evaluate import evaluate
 
-        return evaluate(self.truth, self.decoded, self.pipeline.setup.transmitter)
+        return evaluate(self.truth, self.other_decoded if other else self.decoded, self.pipeline.setup.transmitter)
 
 
 def fitted_mmbp(evaluation, truth: list[dict], scene: Scene) -> dict | None:
@@ -108,21 +124,33 @@ def fitted_mmbp(evaluation, truth: list[dict], scene: Scene) -> dict | None:
         return None
 
 
-def scene_outcomes(scene: Scene, n_frames: int) -> dict:
+def scene_outcomes(scene: Scene, n_frames: int, other_decoder: str | None = None) -> dict:
     """Render, decode and evaluate ``n_frames`` of a scene in memory.
+
+    Parameters
+    ----------
+    scene : Scene
+    n_frames : int
+    other_decoder : str, optional
+        ``package.module:function``: also decode the same frames with it.
 
     Returns
     -------
     dict
         The evaluation summary (:func:`rollsim.evaluate.summarise`) plus
-        ``render_ms_per_frame`` and ``decode_ms_per_frame`` (one core).
+        ``render_ms_per_frame`` and ``decode_ms_per_frame`` (one core); with
+        ``other_decoder``, ``other``: its summary and ``decode_ms_per_frame``.
     """
     from rollsim.render import RenderPipeline
 
-    run = DecodedRun(RenderPipeline(scene))
+    run = DecodedRun(RenderPipeline(scene), other_decoder=other_decoder)
     for index in range(n_frames):
         run.step(index)
     summary = run.evaluation().summary
     summary["render_ms_per_frame"] = 1e3 * sum(run.render_s) / max(1, n_frames)
     summary["decode_ms_per_frame"] = 1e3 * sum(run.decode_s) / max(1, n_frames)
+    if other_decoder is not None:
+        other = run.evaluation(other=True).summary
+        other["decode_ms_per_frame"] = 1e3 * sum(run.other_decode_s) / max(1, n_frames)
+        summary["other"] = other
     return summary

@@ -2,6 +2,7 @@
 
 import doctest
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -156,3 +157,16 @@ def test_tables_where_pandas_is_installed(api_run):
     assert len(table) == sum(len(f.sdus) for f in frames.truth)
     outcomes = result.to_dataframe()
     assert len(outcomes) == len(result.outcomes) and (outcomes["outcome"] == "ok").sum() == result.counts["ok"]
+
+
+def test_the_notebook_style_example_runs(tmp_path):
+    import runpy
+
+    import cv2
+
+    tour = runpy.run_path(str(Path(__file__).resolve().parents[1] / "examples" / "tour.py"))
+    rows = tour["tour"](4)
+    assert [r["distance_cm"] for r in rows] == list(tour["DISTANCES_CM"])
+    assert all(0 <= r["ok"] <= r["fully_visible"] and r["M"] >= 1 for r in rows)
+    tour["plot"](rows, str(tmp_path / "tour.png"))
+    assert cv2.imread(str(tmp_path / "tour.png")) is not None

@@ -210,8 +210,8 @@ def test_unreadable_frames_are_named_relative_to_the_run(rendered, tmp_path):
         ("decode.json", "{not json", "decode.json: cannot read as JSON"),
         ("truth.jsonl", '{"frame": 0, "start_s": 0.0}\n', "truth.jsonl: record 1: missing sdus"),
         ("decoded.jsonl", '{"frame": "x", "first_row": 1, "last_row": 2, "sequence": 0, "bits": "1", "check_ok": true}\n',
-         "decoded.jsonl: record 1: frame = 'x': expected int"),
-        ("decoded.jsonl", "[1, 2]\n", "decoded.jsonl: record 1: not a JSON object"),
+         "decoded.jsonl: line 1: frame = 'x': expected integer"),
+        ("decoded.jsonl", "[1, 2]\n", "decoded.jsonl: line 1: not a JSON object"),
     ],
 )
 def test_malformed_inputs_of_evaluate_are_one_line(rendered, tmp_path, capsys, target, content, message):
@@ -263,7 +263,7 @@ def test_evaluate_refuses_malformed_bits_naming_the_line(rendered, tmp_path, cap
     records = read_jsonl(run / "decoded.jsonl")
     records[1]["bits"] = "012x"
     (run / "decoded.jsonl").write_text("".join(json.dumps(r) + "\n" for r in records))
-    _evaluate_refused(run, capsys, "decoded.jsonl: line 2: bits = '012x'", "expected 19 characters 0 or 1")
+    _evaluate_refused(run, capsys, "decoded.jsonl: line 2: bits = '012x'", "expected a string of 0s and 1s")
 
 
 def test_evaluate_refuses_decodes_of_frames_the_truth_does_not_list(rendered, tmp_path, capsys):
