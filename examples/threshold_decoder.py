@@ -13,8 +13,8 @@ row, cuts the profile at the midpoint of its 5th and 95th percentiles, lays
 round(run length / rows per chip) chips on each run, and reads a PHY-SDU
 after every SYNC with :meth:`rollsim.protocol.PhyFormat.decode_coded`. No
 local threshold, no erasures, no clock recovery, no edge-bias correction:
-what rollsim's decoder adds is what it gains over this (README, "Anyone's
-decoder").
+what rollsim's decoder adds is what it gains over this (docs/evaluation.md,
+"Anyone's decoder").
 """
 
 from __future__ import annotations

@@ -813,7 +813,7 @@ def _add_bench_commands(sub) -> None:
     _add_json_file(p)
     _add_force(p)
 
-    p = add("stress", "decoder outcome rates on the paper, stress and effect scenes (the README table)")
+    p = add("stress", "decoder outcome rates on the paper, stress and effect scenes (the table in docs/evaluation.md)")
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: every bundled paper-, stress- and effect- scene)")
     p.add_argument("--frames", type=_positive_int, default=100, help="frames per scene (default 100)")
     p.add_argument("--workers", type=_positive_int, default=2, help="scenes in parallel (default 2)")

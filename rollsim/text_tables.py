@@ -1,5 +1,5 @@
 """Tables and numbers as text: plain-text tables for the terminal, Markdown
-tables for reports and the README, and the number formats they share."""
+tables for reports and the docs, and the number formats they share."""
 
 from __future__ import annotations
 

@@ -153,10 +153,10 @@ def test_there_are_at_least_ten_malformed_scenes():
     assert len(BAD) >= 10
 
 
-def test_readme_documents_every_scene_key():
+def test_the_scene_reference_documents_every_scene_key():
     from rollsim.scene import Camera, Channel, Effects, Environment, Led, Link, Render, Scene
 
-    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    readme = (Path(__file__).parents[1] / "docs" / "scenes.md").read_text()
     for model in (Scene, Camera, Led, Link, Environment, Channel, Render, Effects):
         for key in model.model_fields:
             assert f"`{key}`" in readme or f"`{key}," in readme or f", `{key}`" in readme, f"{model.__name__}.{key}"

@@ -475,7 +475,7 @@ def _with_change(value, change, spec: str) -> str:
 
 
 def table_rows(result: dict) -> list[tuple]:
-    """The accuracy table for the terminal and the README, one row per setting."""
+    """The accuracy table for the terminal and docs/accuracy.md, one row per setting."""
     out = []
     for knob in result["knobs"]:
         for row in knob["settings"]:

@@ -2,7 +2,7 @@
 
 Each scene is rendered in memory, decoded and evaluated against its truth
 (:func:`rollsim.stream.scene_outcomes`), frame by frame in constant memory; scenes run in
-parallel. The table it prints (``--markdown``) is the README's stress table.
+parallel. The table it prints (``--markdown``) is the stress table of docs/evaluation.md.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 :data:`REGISTRY` is the one list. The scene schema's ``effects`` section
 (:class:`rollsim.scene.effects.Effects`) and the render pipeline
 (:mod:`rollsim.render.stages`) are both derived from it, so an effect is
-added by writing its module (see :mod:`rollsim.effects.base` and the
-README's "Adding an effect") and one line here.
+added by writing its module (see :mod:`rollsim.effects.base` and
+docs/adding-an-effect.md) and one line here.
 
 The order is the order of work: the per-scene hooks run in it, and stages
 that share a slot run in it. ``bayer`` recomputes the electron rates from

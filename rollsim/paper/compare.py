@@ -63,7 +63,7 @@ def layer_values(claim: Claim, figures: dict) -> dict:
 def analytic_rows() -> list[dict]:
     """Figs. 7–9 and 12 and Eq. 7: the paper's analytic statements against rollsim's exact MMBP.
 
-    Each row names the erratum it shows (README, "Channel models").
+    Each row names the erratum it shows (docs/channel-models.md).
     """
     from rollsim.channel import analytic
 

@@ -1,6 +1,6 @@
 """Scene files: YAML scenes validated into typed objects.
 
-See the README's "Scene file reference" for every key, its unit and range.
+See docs/scenes.md for every key, its unit and range.
 """
 
 from rollsim.scene.bundled import bundled_scene_dir, bundled_scene_paths, resolve_scene_path

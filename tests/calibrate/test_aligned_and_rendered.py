@@ -110,7 +110,7 @@ def test_degenerate_rendered_trace_with_its_scene(evaluated_run):
 
 GLARE_GAP = ("with glare the decoder's losses gather at the frame's edges and the saturated centre, not i.i.d. "
              "per ON slot: over 300 frames the fitted p_e is 3.6 % (2.5-4.9 %) against an error rate of 5.0 %, "
-             "and the fitted MMBP's RP goodput is 12 % and 10 % below the replayed trace at r = 2, 3 (README)")
+             "and the fitted MMBP's RP goodput is 12 % and 10 % below the replayed trace at r = 2, 3 (docs/calibration.md)")
 
 
 @pytest.mark.slow

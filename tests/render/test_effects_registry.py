@@ -1,7 +1,7 @@
 """One effect, one module: the scene schema and the pipeline both come from the registry.
 
-The last part adds a toy "constant offset" effect the way the README's
-"Adding an effect" describes, in this file only, and checks that it
+The last part adds a toy "constant offset" effect the way
+docs/adding-an-effect.md describes, in this file only, and checks that it
 appears in the scene schema and runs in the pipeline.
 """
 
