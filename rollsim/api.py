@@ -344,6 +344,16 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
     -------
     list of dict
         One record per PHY-SDU found, in frame order.
+
+    Examples
+    --------
+    >>> import rollsim as rs
+    >>> frames = rs.render("paper-geometric", n_frames=2)
+    >>> records = rs.decode(frames)
+    >>> sorted(records[0])[:4], records[0]["frame"]
+    (['bits', 'check_ok', 'confidence', 'first_row'], 0)
+    >>> rs.decode(frames, decoder=lambda image, settings: [])
+    []
     """
     from rollsim.decode import settings_from_scene
     from rollsim.records import as_decoded_record
@@ -422,6 +432,16 @@ def evaluate(truth: Union[Truth, Frames], decoded: Sequence[Mapping]) -> Result:
     Returns
     -------
     Result
+
+    Examples
+    --------
+    >>> import rollsim as rs
+    >>> frames = rs.render("paper-geometric", n_frames=3)
+    >>> result = rs.evaluate(frames.truth, rs.decode(frames))
+    >>> sorted(result.counts)
+    ['corrupted', 'missed', 'not_visible', 'ok', 'undetected_error']
+    >>> result.counts["ok"] <= result.summary["fully_visible"]
+    True
     """
     from rollsim.evaluate import evaluate as run
     from rollsim.transmitter import transmitter_from_scene
@@ -512,6 +532,17 @@ def calibrate(result: Result, n_packets: Optional[int] = None, seed: int = 1) ->
     ------
     RollsimError
         When the models cannot be fitted (no emission, none received).
+
+    Examples
+    --------
+    >>> import rollsim as rs
+    >>> frames = rs.render("paper-geometric", n_frames=6)
+    >>> fit = rs.calibrate(rs.evaluate(frames.truth, rs.decode(frames)))
+    >>> fit.mmbp.M >= 1 and 0.0 <= fit.mmbp.p_e <= 1.0
+    True
+    >>> low, high = fit.mmbp.fit.p_e_ci95          # Clopper-Pearson 95 % interval
+    >>> low <= fit.mmbp.p_e <= high
+    True
     """
     from rollsim.calibrate import calibrate as run
     from rollsim.calibrate import fit_ge, fit_mmbp
