@@ -66,7 +66,7 @@ from scipy.special import stdtrit
 from rollsim.budget import check_memory
 from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, ChannelModel, _as_count
 from rollsim.parallel import default_workers, process_pool
-from rollsim.transmitter.schedule import Schedule
+from rollsim.transmitter.schedule import RlncSchedule, Schedule
 
 __all__ = [
     "CAMCOMSIM_FIELDS",
@@ -133,6 +133,8 @@ _BYTES_PER_RUN = 160
 # Bytes per recorded loss streak (int64); a run holds at most one streak per
 # two emissions (each streak is ended by a reception).
 _BYTES_PER_STREAK = 8
+# Spawn key of the stream that draws where a rateless receiver joins.
+_JOIN_STREAM = 0x726C6E63
 # Columns of the per-chunk integer table.
 _COUNTS = ("emissions", "receptions", "unique_receptions", "gap_losses", "decode_errors", "completed")
 
@@ -152,6 +154,21 @@ def _block_sizes(emissions_per_round: int):
     while True:
         yield size
         size = min(2 * size, _MAX_BLOCK)
+
+
+def _emission_blocks(run, emissions_per_round: int, max_emissions: int):
+    """``(start, codes, received)`` of each block of a run: the block's first
+    emission, its outcome codes (the last block cut at ``max_emissions``) and
+    the indices of its receptions. Ends after the block that reaches the cap."""
+    start = 0
+    for size in _block_sizes(emissions_per_round):
+        codes = run.next_block(size)
+        if start + size > max_emissions:
+            codes = codes[: max_emissions - start]
+        yield start, codes, np.flatnonzero(codes == RECEIVED)
+        start += codes.size
+        if start >= max_emissions:
+            return
 
 
 def _add_loss_streaks(received: np.ndarray, open_streak: int, length: int, streaks: list) -> int:
@@ -180,13 +197,8 @@ def _simulate_run(channel, schedule: Schedule, max_emissions: int, seed_sequence
     have = np.zeros(n, dtype=bool)
     n_have = 0
     counts = np.zeros(3, dtype=np.int64)  # per outcome code, emissions so far
-    start = 0
     open_streak = 0  # losses since the last reception
-    for size in _block_sizes(schedule.emissions_per_round):
-        codes = run.next_block(size)
-        if start + size > max_emissions:
-            codes = codes[: max_emissions - start]
-        got = np.flatnonzero(codes == RECEIVED)
+    for start, codes, got in _emission_blocks(run, schedule.emissions_per_round, max_emissions):
         if got.size:
             seq = schedule.sequence_numbers(got + start)
             fresh = ~have[seq]
@@ -205,14 +217,52 @@ def _simulate_run(channel, schedule: Schedule, max_emissions: int, seed_sequence
         counts += np.bincount(codes, minlength=3)
         if streaks is not None:
             open_streak = _add_loss_streaks(got, open_streak, codes.size, streaks)
-        start += codes.size
-        if start >= max_emissions:
-            return (start, int(counts[RECEIVED]), n_have, int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 0)
-    raise AssertionError("unreachable: the block schedule is endless")
+    return (max_emissions, int(counts[RECEIVED]), n_have, int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 0)
+
+
+def _simulate_rlnc_run(channel, schedule: RlncSchedule, max_emissions: int, seed_sequence,
+                       streaks: Optional[list] = None):
+    """One rateless broadcast: as :func:`_simulate_run`, complete when the received
+    combinations reach rank K (``unique`` counts the receptions that raised the rank).
+    The receiver joins at a random seed, drawn from the run's own seed sequence.
+
+    Each block's receptions are stacked under the basis held so far and
+    eliminated at once; in the block that reaches rank K, a binary search
+    over its receptions (:func:`rollsim.protocol.gf2.first_full_rank`) finds
+    the one that completed it.
+    """
+    from rollsim.protocol.gf2 import first_full_rank, row_basis
+    from rollsim.protocol.rlnc import combinations
+
+    run = channel.open_run(seed_sequence)
+    k = schedule.n_packets
+    # The receiver joins the broadcast at a uniformly random coded PHY-SDU:
+    # the seeds it sees start there. (Every run from seed 0 would replay one
+    # code realisation.) A stream of its own, apart from the channel's.
+    joined = np.random.default_rng(np.random.SeedSequence(
+        seed_sequence.entropy, spawn_key=(*seed_sequence.spawn_key, _JOIN_STREAM))).integers(schedule.seed_space)
+    basis = np.zeros((0, k), dtype=bool)
+    counts = np.zeros(3, dtype=np.int64)
+    open_streak = 0
+    for start, codes, got in _emission_blocks(run, schedule.emissions_per_round, max_emissions):
+        if got.size:
+            stacked = np.concatenate([basis, combinations(schedule.sequence_numbers(got + start + joined), k)])
+            needed = first_full_rank(stacked)
+            if needed is not None:
+                end = int(got[needed - basis.shape[0] - 1]) + 1
+                counts += np.bincount(codes[:end], minlength=3)
+                if streaks is not None:
+                    _add_loss_streaks(got[got < end], open_streak, end, streaks)
+                return (start + end, int(counts[RECEIVED]), k, int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 1)
+            basis = row_basis(stacked)
+        counts += np.bincount(codes, minlength=3)
+        if streaks is not None:
+            open_streak = _add_loss_streaks(got, open_streak, codes.size, streaks)
+    return (max_emissions, int(counts[RECEIVED]), basis.shape[0], int(counts[GAP_LOSS]), int(counts[DECODE_ERROR]), 0)
 
 
 def _simulate_chunk(
-    channel, schedule: Schedule, max_emissions: int, seed: int, first_run: int, stop_run: int,
+    channel, schedule: Schedule | RlncSchedule, max_emissions: int, seed: int, first_run: int, stop_run: int,
     record_loss_streaks: bool = False,
 ) -> tuple[np.ndarray, Optional[list]]:
     """Runs ``first_run .. stop_run - 1``: an int64 table, one row per run,
@@ -221,7 +271,11 @@ def _simulate_chunk(
     per_run: Optional[list] = [] if record_loss_streaks else None
     for row, k in enumerate(range(first_run, stop_run)):
         parts: Optional[list] = [] if record_loss_streaks else None
-        table[row] = _simulate_run(channel, schedule, max_emissions, run_seed_sequence(seed, k), parts)
+        seeds = run_seed_sequence(seed, k)
+        if isinstance(schedule, RlncSchedule):
+            table[row] = _simulate_rlnc_run(channel, schedule, max_emissions, seeds, parts)
+        else:
+            table[row] = _simulate_run(channel, schedule, max_emissions, seeds, parts)
         if per_run is not None:
             per_run.append(np.concatenate(parts) if parts else np.zeros(0, dtype=np.int64))
     return table, per_run
@@ -355,7 +409,7 @@ def check_broadcast_memory(runs: int, n_packets: int, workers: int, max_emission
 
 def simulate_broadcast(
     channel,
-    schedule: Schedule,
+    schedule: Schedule | RlncSchedule,
     *,
     header_bits: int,
     payload_bits: int,
@@ -373,8 +427,9 @@ def simulate_broadcast(
     ----------
     channel : MmbpChannel, TimedChannel or CamcomsimChannel
         The channel model (:mod:`rollsim.channel.channels`).
-    schedule : rollsim.transmitter.Schedule
-        Strategy, packets and repeats: the endless emission order.
+    schedule : rollsim.transmitter.Schedule or rollsim.transmitter.schedule.RlncSchedule
+        Strategy, packets and repeats: the endless emission order; or
+        random linear coding, complete at rank K.
     header_bits, payload_bits : int
         ``H`` and ``P`` in bits: throughput counts ``H + P`` per reception,
         goodput ``P`` per distinct packet.
@@ -409,8 +464,8 @@ def simulate_broadcast(
         For invalid parameters, naming the parameter.
     """
     _check_channel(channel)
-    if not isinstance(schedule, Schedule):
-        raise ValueError(f"schedule must be a rollsim.transmitter.Schedule, got {schedule!r}")
+    if not isinstance(schedule, (Schedule, RlncSchedule)):
+        raise ValueError(f"schedule must be a rollsim.transmitter.Schedule or RlncSchedule, got {schedule!r}")
     header_bits = _as_count(header_bits, "header_bits", 0)
     payload_bits = _as_count(payload_bits, "payload_bits", 1)
     runs = _as_count(runs, "runs", 1)

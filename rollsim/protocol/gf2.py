@@ -140,6 +140,15 @@ def rank(coefficients) -> int:
     return _reduce(pack_rows(c), c.shape[1])[1]
 
 
+def row_basis(coefficients) -> np.ndarray:
+    """A basis of the row space: the reduced independent rows (bool, shape (rank, K))."""
+    c = np.asarray(coefficients, dtype=bool)
+    if c.shape[0] == 0:
+        return np.zeros((0, c.shape[1]), dtype=bool)
+    words, found = _reduce(pack_rows(c), c.shape[1])
+    return unpack_rows(words[:found], c.shape[1])
+
+
 def first_full_rank(coefficients) -> int | None:
     """The least n for which the first n rows have rank K (the number of columns), or None.
 

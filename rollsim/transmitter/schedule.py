@@ -99,3 +99,44 @@ class Schedule:
             return (j // self.n_packets) * total + prefix[j % self.n_packets]
 
         return run * over_packets(block) + within * w[block % self.n_packets]
+
+
+@dataclass(frozen=True)
+class RlncSchedule:
+    """Emission schedule of random linear coding (rateless): every emission a fresh combination.
+
+    Emission i carries the coded PHY-SDU of seed i mod ``seed_space``
+    (:func:`rollsim.protocol.rlnc.combinations` draws its subset of the K
+    source packets from that seed); the header carries the seed, so a
+    header of h bits gives 2^h seeds before they repeat, and a repeated seed
+    repeats a combination, which adds no rank.
+
+    Parameters
+    ----------
+    n_packets : int
+        K, source packets in the message.
+    seed_space : int
+        Distinct seeds, e.g. 2 ** header_bits.
+    """
+
+    n_packets: int
+    seed_space: int
+
+    strategy = "rlnc"
+    repeats = 1
+
+    def __post_init__(self):
+        if self.n_packets < 1:
+            raise ValueError(f"n_packets must be >= 1, got {self.n_packets}")
+        if self.seed_space < self.n_packets:
+            raise ValueError(f"seed_space must be >= n_packets ({self.n_packets}): fewer seeds cannot "
+                             f"reach rank K, got {self.seed_space}")
+
+    @property
+    def emissions_per_round(self) -> int:
+        """K: a round is as many emissions as source packets (the least that can decode)."""
+        return self.n_packets
+
+    def sequence_numbers(self, tx) -> np.ndarray:
+        """The seed each emission carries (int64 array)."""
+        return np.asarray(tx, dtype=np.int64) % self.seed_space

@@ -56,3 +56,42 @@ def test_goodput_and_bad_arguments():
             rlnc_expected_emissions(*args)
     with pytest.raises(ValueError):
         rlnc_expected_goodput_bps(5, 2, 0.0, 3, 0, 1e-3)
+
+
+@pytest.mark.parametrize("M, N, p_e, k", [(5, 2, 0.05, 10), (3, 1, 0.001, 60)])
+def test_the_event_simulator_agrees_with_the_analysis(M, N, p_e, k):
+    from rollsim.channel.channels import MmbpChannel
+    from rollsim.channel.eventsim import simulate_broadcast
+    from rollsim.transmitter.schedule import RlncSchedule
+
+    result = simulate_broadcast(MmbpChannel(M, N, p_e, 1e-3), RlncSchedule(k, 2**32), header_bits=32, payload_bits=19,
+                                runs=600, seed=3, workers=1)
+    summary = result.summary()
+    assert summary["completed_fraction"] == 1.0
+    emissions = summary["metrics"]["emissions"]
+    low, high = emissions["ci95"]
+    # The 95 % interval, widened to 99.9 % (3.29 / 1.96), holds the exact mean.
+    half = (high - low) / 2 * 3.29 / 1.96
+    assert abs(emissions["mean"] - rlnc_expected_emissions(M, N, p_e, k)) < half
+    assert summary["metrics"]["unique_receptions"]["mean"] == k
+
+
+def test_a_seed_space_too_small_for_k_is_refused_and_seeds_wrap():
+    from rollsim.transmitter.schedule import RlncSchedule
+
+    with pytest.raises(ValueError, match="seed_space"):
+        RlncSchedule(10, 8)
+    np.testing.assert_array_equal(RlncSchedule(3, 4).sequence_numbers([0, 3, 4, 9]), [0, 3, 0, 1])
+
+
+def test_a_capped_rateless_run_reports_its_rank():
+    from rollsim.channel.channels import MmbpChannel
+    from rollsim.channel.eventsim import simulate_broadcast
+    from rollsim.transmitter.schedule import RlncSchedule
+
+    result = simulate_broadcast(MmbpChannel(1, 9, 0.0, 1e-3), RlncSchedule(50, 2**20), header_bits=20,
+                                payload_bits=19, runs=5, seed=1, workers=1, max_emissions=100)
+    summary = result.summary()
+    assert summary["completed_fraction"] == 0.0
+    # 100 emissions over a 1-in-10 ON cycle: 10 receptions, each raising the rank but for 2^-40.
+    assert summary["metrics"]["unique_receptions"]["mean"] == 10
