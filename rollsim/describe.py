@@ -194,9 +194,18 @@ def _link_lines(link: dict, height_px: int) -> list[str]:
         f"(the paper's Eq. 10: {link['roi_ratio_eq10']:.3f})",
         f"MMBP       M = {link['M']}, N = {link['N']} from the {link['mn_from']} (capture window "
         f"{link['capture_window_s'] * 1e3:.4g} ms), p_e = {link['p_e']:g}",
-        f"predicted  {link['strategy'].upper()} r={link['repeats']}, {link['n_packets']} packets: p0 = {link['p0']:.4g}, "
-        f"P(all packets in one round) = {link['p_message']:.4g}, expected goodput {link['goodput_bps']:.4g} bit/s",
+        _prediction_line(link),
     ]
+
+
+def _prediction_line(link: dict) -> str:
+    """What the analysis predicts for the scene's strategy."""
+    if link["strategy"] == "rlnc":
+        return (f"predicted  RLNC, {link['n_packets']} source packets: {link['expected_emissions_rlnc']:.4g} emissions "
+                f"expected to decode, expected goodput {link['goodput_bps']:.4g} bit/s")
+    return (f"predicted  {link['strategy'].upper()} r={link['repeats']}, {link['n_packets']} packets: "
+            f"p0 = {link['p0']:.4g}, P(all packets in one round) = {link['p_message']:.4g}, "
+            f"expected goodput {link['goodput_bps']:.4g} bit/s")
 
 
 def _signal_lines(signal: dict) -> list[str]:

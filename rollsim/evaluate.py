@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from rollsim.errors import RollsimError, clip, short_repr
+from rollsim.receiver import receive_message
 from rollsim.records import read_decoded, read_jsonl
 
 OUTCOMES = ("ok", "undetected_error", "corrupted", "missed", "not_visible")
@@ -130,14 +131,18 @@ def evaluate(truth: list[dict], decoded: list[dict], transmitter) -> Evaluation:
     matched = match_decodes(rows, decoded)
     false_decodes = [d for d, m in zip(decoded, matched.tolist()) if m < 0]
     if rows["tx"].size == 0:
-        return Evaluation([], false_decodes, summarise([], false_decodes, len(truth)))
+        summary = summarise([], false_decodes, len(truth))
+        summary["message"] = receive_message(decoded, truth, transmitter).as_dict()
+        return Evaluation([], false_decodes, summary)
 
     first_tx = int(rows["tx"].min())
     all_tx = np.arange(first_tx, int(rows["tx"].max()) + 1)
     outcome, frame, fully = _visibility(rows, first_tx, all_tx.size)
     decodes = _apply_decodes(rows, decoded, matched, first_tx, outcome, frame)
     outcomes = _outcome_records(transmitter, all_tx, outcome, frame, fully, decodes)
-    return Evaluation(outcomes, false_decodes, summarise(outcomes, false_decodes, len(truth)))
+    summary = summarise(outcomes, false_decodes, len(truth))
+    summary["message"] = receive_message(decoded, truth, transmitter).as_dict()
+    return Evaluation(outcomes, false_decodes, summary)
 
 
 def _visibility(rows: dict, first_tx: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -450,7 +455,19 @@ def format_summary(summary: dict) -> str:
         "false decodes per 1000 frames   "
         + ("n/a" if summary["false_decodes_per_1000_frames"] is None else f"{summary['false_decodes_per_1000_frames']:.2f}"),
     ]
+    message = summary.get("message")
+    if message is not None:
+        lines.append(_message_line(message))
     return "\n".join(lines)
+
+
+def _message_line(message: dict) -> str:
+    """What the receiver made of the message (:mod:`rollsim.receiver`)."""
+    if not message["decodable"]:
+        return f"message                         not decodable from the {message['receptions']} PHY-SDUs read"
+    exact = "bit-exact" if message["message_ok"] else "WRONG (an undetected error was used)"
+    return (f"message                         decodable in frame {message['frame']} after {message['receptions']} "
+            f"PHY-SDUs, {exact}; goodput {message['goodput_bps']:.4g} bit/s")
 
 
 # rollsim.evaluate(...) is the Python API's function (rollsim.api).

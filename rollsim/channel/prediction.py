@@ -3,7 +3,8 @@
 One place for the figures that ``rollsim describe`` prints and the sweeps'
 ``analytic`` stage tabulates: the LED's rows and the ROI ratio, the MMBP
 ``(M, N)`` derived from them, and p0, P(message) and the expected goodput
-of RP and RS. No rendering: geometry and closed forms only.
+of RP and RS, and the expected emissions and goodput of random linear
+coding (rlnc). No rendering: geometry and closed forms only.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 import functools
 from typing import TYPE_CHECKING
 
-from rollsim.channel import analytic
+from rollsim.channel import analytic, rateless
 from rollsim.channel.scene_channel import (
     capture_window_from_scene,
     mmbp_slots_from_scene,
@@ -33,6 +34,12 @@ def _cached_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: in
         figures[f"p_message_{strategy}"] = analytic.mmbp_p_message(M, N, r, p_e, n, strategy)
         figures[f"goodput_{strategy}_bps"] = analytic.mmbp_expected_goodput_bps(M, N, r, p_e, n, strategy,
                                                                                 payload_bits, sdu_s)
+    if M >= 1 and p_e < 1.0:
+        figures["expected_emissions_rlnc"] = rateless.rlnc_expected_emissions(M, N, p_e, n)
+        figures["goodput_rlnc_bps"] = payload_bits * n / (figures["expected_emissions_rlnc"] * sdu_s)
+    else:  # no ON slot, or every PHY-SDU lost: never decodable
+        figures["expected_emissions_rlnc"] = float("inf")
+        figures["goodput_rlnc_bps"] = 0.0
     return figures
 
 
@@ -101,7 +108,9 @@ def link_prediction(scene: Scene) -> dict:
         "n_packets": n, "repeats": link.repeats, "p_e": scene.channel.p_e,
         **figures,
         "strategy": strategy,
-        "p0": figures[f"p0_{strategy}"],
-        "p_message": figures[f"p_message_{strategy}"],
+        # rlnc has no per-packet loss or one-round message probability: its
+        # figure is the expected emissions until rank K.
+        "p0": figures.get(f"p0_{strategy}"),
+        "p_message": figures.get(f"p_message_{strategy}"),
         "goodput_bps": figures[f"goodput_{strategy}_bps"],
     }

@@ -54,7 +54,8 @@ from rollsim.channel.eventsim import (
 from rollsim.optics.geometry import led_rows
 from rollsim.protocol.packets import n_packets as packets_of_message
 from rollsim.scene.loader import DISTANCE_WITHOUT_LENS, SEQUENCE_WRAP, relaxations_used
-from rollsim.transmitter.schedule import Schedule
+from rollsim.protocol.rlnc import seed_space
+from rollsim.transmitter.schedule import RlncSchedule, Schedule
 from rollsim.transmitter.transmitter import phy_from_scene
 
 if TYPE_CHECKING:
@@ -228,7 +229,7 @@ class SceneBroadcast:
     """
 
     channel: object
-    schedule: Schedule
+    schedule: Schedule | RlncSchedule
     header_bits: int
     payload_bits: int
     warnings: tuple = ()
@@ -294,7 +295,8 @@ def broadcast_from_scene(scene: Scene, kind: str, *, java_float32: bool = False)
     channel = channel_from_scene(scene, kind, java_float32=java_float32)
     return SceneBroadcast(
         channel=channel,
-        schedule=Schedule(link.strategy, n, link.repeats),
+        schedule=(RlncSchedule(n, seed_space(link.header_bits)) if link.strategy == "rlnc"
+                  else Schedule(link.strategy, n, link.repeats)),
         header_bits=link.header_bits,
         payload_bits=link.payload_bits,
         warnings=_camcomsim_warnings(scene, channel, n) if kind == "camcomsim" else (),

@@ -92,6 +92,33 @@ def encode(packets, seeds) -> np.ndarray:
     return gf2_matmul(combinations(seeds, packets.shape[0]), packets)
 
 
+def _is_prime(n: int) -> bool:
+    if n < 2:
+        return False
+    if n % 2 == 0:
+        return n == 2
+    return all(n % d for d in range(3, int(n**0.5) + 1, 2))
+
+
+def seed_space(header_bits: int) -> int:
+    """Seeds a coded PHY-SDU's header cycles through: the largest prime ≤ 2^header_bits.
+
+    The transmitter sends seed i mod S at emission i. Were S a power of two,
+    a camera whose cycle C (M + N slots) divides it (C = 4 at 5 cm on
+    paper-default) would see the same residues of i mod C in its OFF slots
+    for ever, and miss those seeds every time: with 9 header bits and a
+    1 kB message, 384 visible seeds cannot reach rank 422. A prime S shares
+    no factor with any cycle shorter than itself, so every seed comes round
+    to an ON slot.
+    """
+    if header_bits < 1:
+        raise ValueError(f"header_bits must be >= 1, got {header_bits}")
+    n = 1 << header_bits
+    while not _is_prime(n):
+        n -= 1
+    return n
+
+
 def rank_step_probabilities(k: int) -> np.ndarray:
     """p_r, r = 0 … K−1: the chance that a uniform non-empty subset raises rank r to r + 1.
 

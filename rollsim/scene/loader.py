@@ -26,6 +26,7 @@ from pydantic import BaseModel, ValidationError
 from rollsim.effects.base import Effect
 from rollsim.errors import SceneError, clip, short_repr
 from rollsim.protocol import CRC8_MAX_DATA_BITS, min_header_bits, n_packets
+from rollsim.protocol.rlnc import seed_space
 from rollsim.scene.effects import normalise_effects
 from rollsim.scene.model import Scene, scene_model
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS
@@ -551,6 +552,12 @@ def consistency_errors(scene: Scene, source: str, relax: Iterable[str] = ()) -> 
             f"{link.header_bits + link.payload_bits} exceeds {CRC8_MAX_DATA_BITS}, the longest data for which "
             f"crc8 detects every double error"
         )
+    if link.strategy == "rlnc" and link.repeats != 1:
+        errors.append(f"{source}: link.repeats = {link.repeats}: strategy rlnc sends every emission as a fresh "
+                      "combination, so repeats must be 1")
+    if link.strategy == "rlnc" and (link.header_bits < 1 or seed_space(link.header_bits) < packets):
+        errors.append(f"{source}: link.header_bits = {link.header_bits}: strategy rlnc cycles through the largest "
+                      f"prime number of seeds the header holds, which must be at least the {packets} source packets")
     channel = scene.channel
     if (channel.M is None) != (channel.N is None):
         errors.append(f"{source}: channel: give both M and N, or neither (null derives both from the physics)")

@@ -110,7 +110,9 @@ class Link(_Section):
     payload_bits: int = Field(19, ge=1, le=4096)
     check: Literal["parity2", "crc8"] = "parity2"
     message_bytes: int = Field(50, ge=1, le=10**7)
-    strategy: Literal["rp", "rs"] = "rp"
+    # rp, rs: repetition of the K packets; rlnc: random linear coding over
+    # GF(2), every emission a fresh combination whose seed the header carries.
+    strategy: Literal["rp", "rs", "rlnc"] = "rp"
     repeats: int = Field(1, ge=1, le=10**6)
     pattern: Literal["data", "square", "on", "off"] = "data"
     start_offset_us: float = Field(0.0, ge=-1e9, le=1e9)

@@ -38,6 +38,7 @@ COMMON_COLUMNS = ("cell", "cell_id", "seed", "status", "error", "seconds")
 ANALYTIC_COLUMNS = (
     "M", "N", "roi_ratio", "roi_ratio_eq10", "sdu_duration_s", "capture_window_s", "n_packets", "repeats", "p_e",
     "p0_rp", "p0_rs", "p_message_rp", "p_message_rs", "goodput_rp_bps", "goodput_rs_bps",
+    "expected_emissions_rlnc", "goodput_rlnc_bps",
 )
 SIMULATE_COLUMNS = (
     "channel", "runs", "M", "N", "p_e", "completed_fraction", "goodput_bps_mean", "goodput_bps_ci_low",
@@ -48,7 +49,7 @@ RUN_COLUMNS = (
     "false_decodes", "error_rate", "roi_ratio", "M", "N", "p_e", "p_e_ci_low", "p_e_ci_high", "on_emissions",
     "on_failures", "mean_on_per_frame",
     "M_physics", "N_physics", "goodput_replayed_bps", "replay_trace_rounds", "goodput_predicted_bps", "fit_error",
-    "render_s", "decode_s",
+    "message_decodable", "message_ok", "goodput_received_bps", "render_s", "decode_s",
 )
 STAGE_COLUMNS = {"analytic": ANALYTIC_COLUMNS, "simulate": SIMULATE_COLUMNS, "run": RUN_COLUMNS}
 
@@ -84,6 +85,16 @@ def simulate_row(scene: Scene, options: dict) -> dict:
     return row
 
 
+def _predicted_goodput_bps(fit, link, n: int, sdu_s: float) -> float:
+    """Expected goodput of the fitted MMBP for the link's strategy."""
+    from rollsim.channel.analytic import mmbp_expected_goodput_bps
+    from rollsim.channel.rateless import rlnc_expected_goodput_bps
+
+    if link.strategy == "rlnc":
+        return rlnc_expected_goodput_bps(fit.M, fit.N, fit.p_e, n, link.payload_bits, sdu_s) if fit.p_e < 1 else 0.0
+    return mmbp_expected_goodput_bps(fit.M, fit.N, link.repeats, fit.p_e, n, link.strategy, link.payload_bits, sdu_s)
+
+
 def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
     """The pixel pipeline's figures of one scene: render and decode in memory, evaluate, fit.
 
@@ -94,7 +105,6 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
 
     from rollsim.calibrate import Trace, fit_mmbp, physics_prediction
     from rollsim.calibrate.replay import replay_goodput_bps
-    from rollsim.channel.analytic import mmbp_expected_goodput_bps
     from rollsim.channel.scene_channel import sdu_duration_from_scene
     from rollsim.render import RenderPipeline
     from rollsim.stream import DecodedRun
@@ -115,6 +125,10 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
            "render_s": float(sum(run.render_s)), "decode_s": float(sum(run.decode_s))}
     physics = physics_prediction(scene)
     row.update(M_physics=physics["M"], N_physics=physics["N"])
+    # The receiver's own figure, the same for every strategy (rollsim.receiver).
+    message = summary["message"]
+    row.update(message_decodable=message["decodable"], message_ok=message["message_ok"],
+               goodput_received_bps=message["goodput_bps"])
     success = np.array([o["success"] for o in evaluation.outcomes], dtype=bool)
     link, sdu_s, n = scene.link, sdu_duration_from_scene(scene), _packets(scene)
     trace = Trace(success, np.array([o["start_s"] for o in evaluation.outcomes], dtype=np.float64),
@@ -127,9 +141,9 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
         row.update(M=fit.M, N=fit.N, p_e=fit.p_e, p_e_ci_low=fit.p_e_ci95[0], p_e_ci_high=fit.p_e_ci95[1],
                    on_emissions=fit.on_emissions, on_failures=fit.on_failures,
                    mean_on_per_frame=fit.mean_on_per_frame,
-                   goodput_predicted_bps=mmbp_expected_goodput_bps(fit.M, fit.N, link.repeats, fit.p_e, n,
-                                                                   link.strategy, link.payload_bits, sdu_s))
-    if success.size:
+                   goodput_predicted_bps=_predicted_goodput_bps(fit, link, n, sdu_s))
+    # The replay cycles a trace through the repetition strategies' schedules.
+    if success.size and link.strategy != "rlnc":
         replay = replay_goodput_bps(success, link.repeats, n, link.payload_bits, sdu_s, strategy=link.strategy)
         # Below a few rounds the cyclic replay reuses the trace's outcomes: say how many it holds.
         row.update(goodput_replayed_bps=replay["goodput_bps"], replay_trace_rounds=replay["trace_rounds"])

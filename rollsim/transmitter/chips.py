@@ -19,7 +19,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from rollsim.transmitter.schedule import Schedule
+from rollsim.transmitter.schedule import RlncSchedule, Schedule
 
 
 @runtime_checkable
@@ -76,15 +76,16 @@ class DataChips:
         Row k holds the chips of the PHY-SDU with sequence number k.
     """
 
-    schedule: Schedule
+    schedule: Schedule | RlncSchedule
     sdu_chips: np.ndarray
     _prefix: np.ndarray = field(init=False, repr=False, compare=False)
     _totals: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         table = np.asarray(self.sdu_chips, dtype=np.uint8)
-        if table.ndim != 2 or table.shape[0] != self.schedule.n_packets:
-            raise ValueError(f"sdu_chips must have shape ({self.schedule.n_packets}, chips_per_sdu)")
+        rows = self.schedule.n_sequences
+        if table.ndim != 2 or table.shape[0] != rows:
+            raise ValueError(f"sdu_chips must have shape ({rows}, chips_per_sdu)")
         # ON chips before each offset of a PHY-SDU: at most its chip count,
         # so the smallest unsigned type that holds it (uint16 for any valid
         # PHY-SDU) keeps a message of millions of packets in memory.

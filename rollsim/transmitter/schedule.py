@@ -48,6 +48,11 @@ class Schedule:
             raise ValueError(f"repeats must be >= 1, got {self.repeats}")
 
     @property
+    def n_sequences(self) -> int:
+        """Distinct sequence numbers sent: N_p."""
+        return self.n_packets
+
+    @property
     def emissions_per_round(self) -> int:
         """r·N_p: after one round every packet has been sent r times."""
         return self.repeats * self.n_packets
@@ -133,6 +138,11 @@ class RlncSchedule:
                              f"reach rank K, got {self.seed_space}")
 
     @property
+    def n_sequences(self) -> int:
+        """Distinct sequence numbers (seeds) sent."""
+        return self.seed_space
+
+    @property
     def emissions_per_round(self) -> int:
         """K: a round is as many emissions as source packets (the least that can decode)."""
         return self.n_packets
@@ -140,3 +150,11 @@ class RlncSchedule:
     def sequence_numbers(self, tx) -> np.ndarray:
         """The seed each emission carries (int64 array)."""
         return np.asarray(tx, dtype=np.int64) % self.seed_space
+
+    def cumulative(self, tx, weights) -> np.ndarray:
+        """Sum of ``weights[seed(k)]`` over emissions k in [0, tx) (see :meth:`Schedule.cumulative`).
+
+        ``weights`` has one value per seed: the seeds cycle as RS cycles its
+        packets.
+        """
+        return Schedule("rs", self.seed_space).cumulative(tx, weights)

@@ -15,7 +15,7 @@ from rollsim.budget import check_memory
 from rollsim.protocol import PhyFormat, n_packets, packetize
 from rollsim.transmitter.chips import ChipSource, ConstantChips, DataChips, SquareChips, prefix_dtype
 from rollsim.transmitter.message import message_from_seed
-from rollsim.transmitter.schedule import Schedule
+from rollsim.transmitter.schedule import RlncSchedule, Schedule
 from rollsim.transmitter.waveform import Waveform
 
 if TYPE_CHECKING:
@@ -34,9 +34,11 @@ class Transmitter:
         PHY-SDU layout.
     message : bytes
     payloads : ndarray of uint8, shape (n_packets, payload_bits)
-    sdu_chips : ndarray of uint8, shape (n_packets, phy.sdu_chips)
-        Chips of the PHY-SDU with sequence number k in row k.
-    schedule : Schedule
+        The message's source packets.
+    sdu_chips : ndarray of uint8, shape (n_sequences, phy.sdu_chips)
+        Chips of the PHY-SDU with sequence number k in row k (for ``rlnc``,
+        of the coded PHY-SDU whose header carries seed k, one per seed).
+    schedule : Schedule or RlncSchedule
     pattern : {"data", "square", "on", "off"}
     waveform : Waveform
         s(t) and S(t).
@@ -46,7 +48,7 @@ class Transmitter:
     message: bytes
     payloads: np.ndarray
     sdu_chips: np.ndarray
-    schedule: Schedule
+    schedule: Schedule | RlncSchedule
     pattern: str
     waveform: Waveform
 
@@ -75,10 +77,19 @@ class Transmitter:
         last = int(np.ceil((t_end_s - self.waveform.start_s) / self.sdu_duration_s)) - 1
         return np.arange(first, max(first, last) + 1, dtype=np.int64)
 
+    def sent_payloads(self, sequence) -> np.ndarray:
+        """The payload bits sent under each sequence number (for ``rlnc``, each seed's combination)."""
+        sequence = np.asarray(sequence, dtype=np.int64)
+        if isinstance(self.schedule, RlncSchedule):
+            from rollsim.protocol.rlnc import encode
+
+            return encode(self.payloads, sequence).astype(np.uint8)
+        return self.payloads[sequence]
+
     def codeword_bits(self, tx) -> np.ndarray:
         """Header, payload and check bits of each emission, one row per tx."""
         seq = self.schedule.sequence_numbers(tx)
-        return self.phy.codewords(seq, self.payloads[seq])
+        return self.phy.codewords(seq, self.sent_payloads(seq))
 
     def locate(self, t_s) -> dict[str, np.ndarray]:
         """What was being sent at times ``t_s``.
@@ -114,19 +125,36 @@ class Transmitter:
 _ENCODE_BLOCK = 1 << 16
 
 
-def transmitter_bytes(phy: PhyFormat, message_bytes: int) -> int:
+def transmitter_bytes(phy: PhyFormat, message_bytes: int, packets: int | None = None) -> int:
     """Peak bytes :func:`build_transmitter` allocates for a message.
 
     The message and its bits (9 bytes per byte), then per packet its payload
     bits, its chips (1 byte each), their running ON counts
     (:func:`~rollsim.transmitter.chips.prefix_dtype`) and an int64 total;
-    plus one encoding block's temporaries.
+    plus one encoding block's temporaries. ``packets`` overrides the count
+    (the coded PHY-SDUs of ``rlnc``, one per seed).
     """
-    packets = n_packets(message_bytes, phy.payload_bits)
+    packets = n_packets(message_bytes, phy.payload_bits) if packets is None else packets
     prefix = prefix_dtype(phy.sdu_chips).itemsize
     per_packet = phy.payload_bits + phy.sdu_chips + (phy.sdu_chips + 1) * prefix + 8
     block = min(packets, _ENCODE_BLOCK) * (phy.codeword_bits * 8 * 2 + phy.sdu_chips * 2)
     return 9 * message_bytes + packets * per_packet + block
+
+
+# Seeds combined at a time: the combination matrix (seeds x packets bytes)
+# stays a few MB for a message of thousands of packets.
+_CODED_BLOCK = 1 << 12
+
+
+def _encode_coded_blocks(phy: PhyFormat, payloads: np.ndarray, seed_space: int) -> np.ndarray:
+    """Chips of the coded PHY-SDU of every seed 0 … seed_space − 1 (row k: seed k)."""
+    from rollsim.protocol.rlnc import encode
+
+    table = np.empty((seed_space, phy.sdu_chips), dtype=np.uint8)
+    for first in range(0, seed_space, _CODED_BLOCK):
+        seeds = np.arange(first, min(first + _CODED_BLOCK, seed_space))
+        table[first : seeds[-1] + 1] = phy.encode(seeds, encode(payloads, seeds).astype(np.uint8))
+    return table
 
 
 def _encode_blocks(phy: PhyFormat, payloads: np.ndarray) -> np.ndarray:
@@ -154,9 +182,9 @@ def build_transmitter(
     ----------
     phy : PhyFormat
     message : bytes
-    strategy : {"rp", "rs"}
+    strategy : {"rp", "rs", "rlnc"}
     repeats : int
-        r of the strategy.
+        r of the strategy (1 for ``rlnc``).
     pattern : {"data", "square", "on", "off"}
         ``data`` sends the strategy's PHY-SDUs; ``square`` a chip-rate square
         wave (row-time calibration); ``on`` / ``off`` a constant level (flat
@@ -176,8 +204,18 @@ def build_transmitter(
     check_memory(f"link.message_bytes = {len(message)} ({packets} packets of {phy.sdu_chips} chips)",
                  transmitter_bytes(phy, len(message)))
     payloads = packetize(message, phy.payload_bits)
-    schedule = Schedule(strategy, packets, repeats)
-    sdu_chips = _encode_blocks(phy, payloads)
+    schedule: Schedule | RlncSchedule
+    if strategy == "rlnc":
+        # One coded PHY-SDU per seed the header cycles through.
+        from rollsim.protocol.rlnc import seed_space
+
+        schedule = RlncSchedule(packets, seed_space(phy.header_bits))
+        check_memory(f"link.header_bits = {phy.header_bits} (strategy rlnc: {schedule.seed_space} coded PHY-SDUs "
+                     f"of {phy.sdu_chips} chips)", transmitter_bytes(phy, 0, schedule.seed_space))
+        sdu_chips = _encode_coded_blocks(phy, payloads, schedule.seed_space)
+    else:
+        schedule = Schedule(strategy, packets, repeats)
+        sdu_chips = _encode_blocks(phy, payloads)
     chips: ChipSource
     if pattern == "data":
         chips = DataChips(schedule, sdu_chips)
