@@ -289,7 +289,7 @@ def broadcast_from_scene(scene: Scene, kind: str, *, java_float32: bool = False)
     if kind == "camcomsim" and link.strategy != "rp":
         raise ValueError(
             f"link.strategy = {link.strategy!r}: CamComSim has only the RP strategy, so the camcomsim channel does "
-            "too; use --channel mmbp or timed for RS"
+            "too; use --channel mmbp or timed for RS and rlnc"
         )
     n = packets_of_message(link.message_bytes, link.payload_bits)
     channel = channel_from_scene(scene, kind, java_float32=java_float32)
