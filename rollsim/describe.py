@@ -202,7 +202,8 @@ def _prediction_line(link: dict) -> str:
     """What the analysis predicts for the scene's strategy."""
     if link["strategy"] == "rlnc":
         return (f"predicted  RLNC, {link['n_packets']} source packets: {link['expected_emissions_rlnc']:.4g} emissions "
-                f"expected to decode, expected goodput {link['goodput_bps']:.4g} bit/s")
+                f"expected to decode, expected goodput {link['goodput_bps']:.4g} bit/s (with distinct seeds; "
+                f"the header cycles through {link['seed_space']})")
     return (f"predicted  {link['strategy'].upper()} r={link['repeats']}, {link['n_packets']} packets: "
             f"p0 = {link['p0']:.4g}, P(all packets in one round) = {link['p_message']:.4g}, "
             f"expected goodput {link['goodput_bps']:.4g} bit/s")

@@ -20,6 +20,7 @@ from rollsim.channel.scene_channel import (
     scene_led_rows,
 )
 from rollsim.protocol.packets import n_packets
+from rollsim.protocol.rlnc import seed_space as rateless_seed_space
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -113,4 +114,5 @@ def link_prediction(scene: Scene) -> dict:
         "p0": figures.get(f"p0_{strategy}"),
         "p_message": figures.get(f"p_message_{strategy}"),
         "goodput_bps": figures[f"goodput_{strategy}_bps"],
+        "seed_space": rateless_seed_space(link.header_bits) if strategy == "rlnc" else None,
     }
