@@ -51,7 +51,7 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
     """The pixel pipeline on ``paper-default`` with ``overrides``, ``frames`` frames, in memory.
 
     Goodput is the scene's strategy replayed over the decoded outcome
-    trace; throughput is ``(H + P)`` bits per correctly decoded PHY-SDU
+    trace (for rlnc, the receiver's: :mod:`rollsim.receiver`); throughput is ``(H + P)`` bits per correctly decoded PHY-SDU
     over the frames' duration, and ``throughput_bound_bps`` the most that
     whole PHY-SDUs in the measured ROI allow
     (:func:`rollsim.channel.analytic.throughput_bound_bps`); the ROI ratio is the mean fraction of rows
@@ -72,7 +72,9 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
     window_s = row["roi_ratio"] * camera.readout_s + camera.exposure_s
     return {
         "roi_ratio": row["roi_ratio"],
-        "goodput_bps": row.get("goodput_replayed_bps") or 0.0,
+        # rlnc has no replay through a repetition schedule: its goodput is the receiver's.
+        "goodput_bps": (row["goodput_received_bps"] if scene.link.strategy == "rlnc"
+                        else row.get("goodput_replayed_bps") or 0.0),
         "throughput_bps": bits * row["ok"] / duration_s,
         "throughput_bound_bps": throughput_bound_bps(camera.frame_period_s, window_s, sdu_duration_from_scene(scene),
                                                      bits),
