@@ -179,8 +179,8 @@ def _grid_indices(edges: np.ndarray, pitch: float) -> np.ndarray | None:
     return np.concatenate([[0.0], np.cumsum(steps)])
 
 
-def _regress(k: np.ndarray, e: np.ndarray, rising: np.ndarray, keep: np.ndarray):
-    """Least squares e = a[rising] + P·k over the kept edges.
+def grid_regression(k: np.ndarray, e: np.ndarray, rising: np.ndarray, keep: np.ndarray):
+    """Least squares e = a[rising] + P·k over the kept edges: one pitch, one intercept per polarity.
 
     Returns ``(P, a_falling, a_rising, sxx)`` or None when the kept edges do
     not determine the slope.
@@ -239,7 +239,7 @@ def edge_grid_fit(runs: Runs, guess_rows: float) -> GridFit | None:
             k[sel] = counted
     keep = np.ones(e.size, dtype=bool)
     for _ in range(GRID_PASSES):
-        fit = _regress(k, e, rising, keep)
+        fit = grid_regression(k, e, rising, keep)
         if fit is None:
             return None
         pitch, a_falling, a_rising, sxx = fit

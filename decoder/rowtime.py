@@ -28,7 +28,7 @@ from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
 from decoder.region import block_means, choose_factor, detect_regions
-from decoder.pitch import peak_period_rows
+from decoder.pitch import grid_regression, peak_period_rows
 from decoder.timing import find_runs
 
 # Fewer edges than this in a frame give no estimate from it.
@@ -98,35 +98,33 @@ def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, flo
     values = runs.values
     if values.size < 3:
         return None
-    edges = runs.bounds[1:-1]
-    before, after = values[:-1], values[1:]
-    real = (before >= 0) & (after >= 0)
-    ks, positions, groups = [], [], []
-    for rising in (True, False):
-        sel = real & ((after == 1) if rising else (after == 0))
-        e = edges[sel]
-        if e.size < 2:
-            continue
-        k = np.rint((e - e[0]) / guess_rows)
-        ks.append(k - k.mean())
-        positions.append(e - e.mean())
-        groups.append(e.size)
-    if sum(groups) < MIN_EDGES:
+    real = (values[:-1] >= 0) & (values[1:] >= 0)
+    e = runs.bounds[1:-1][real]
+    rising = values[1:][real] == 1
+    # Each polarity's edges counted in periods from its first; a polarity
+    # seen once says nothing of the period and is left out.
+    k = np.zeros(e.size)
+    keep = np.zeros(e.size, dtype=bool)
+    for polarity in (True, False):
+        sel = rising == polarity
+        if sel.sum() >= 2:
+            k[sel] = np.rint((e[sel] - e[sel][0]) / guess_rows)
+            keep |= sel
+    if keep.sum() < MIN_EDGES:
         return None
-    k = np.concatenate(ks)
-    e = np.concatenate(positions)
-    sxx = float(np.sum(k * k))
-    if sxx <= 0:
+    fit = grid_regression(k, e, rising, keep)
+    if fit is None:
         return None
-    period = float(np.sum(k * e) / sxx)
-    residual = e - period * k
+    period, a_falling, a_rising, sxx = fit
+    residual = (e - np.where(rising, a_rising, a_falling) - period * k)[keep]
     if np.sqrt(np.mean(residual**2)) > MAX_RESIDUAL_PERIODS * period:
         return None
     if not runs_fit_a_square_wave(values, runs.bounds, period):
         return None
-    dof = max(1, k.size - 1 - len(groups))
+    groups = int(keep[rising].any()) + int(keep[~rising].any())
+    dof = max(1, residual.size - 1 - groups)
     stderr = float(np.sqrt(np.sum(residual**2) / dof / sxx))
-    return period, stderr, int(k.size)
+    return period, stderr, int(residual.size)
 
 
 def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: float) -> bool:
