@@ -130,16 +130,13 @@ def evaluate(truth: list[dict], decoded: list[dict], transmitter) -> Evaluation:
     rows = _truth_table(truth)
     matched = match_decodes(rows, decoded)
     false_decodes = [d for d, m in zip(decoded, matched.tolist()) if m < 0]
-    if rows["tx"].size == 0:
-        summary = summarise([], false_decodes, len(truth))
-        summary["message"] = receive_message(decoded, truth, transmitter).as_dict()
-        return Evaluation([], false_decodes, summary)
-
-    first_tx = int(rows["tx"].min())
-    all_tx = np.arange(first_tx, int(rows["tx"].max()) + 1)
-    outcome, frame, fully = _visibility(rows, first_tx, all_tx.size)
-    decodes = _apply_decodes(rows, decoded, matched, first_tx, outcome, frame)
-    outcomes = _outcome_records(transmitter, all_tx, outcome, frame, fully, decodes)
+    outcomes: list[dict] = []
+    if rows["tx"].size:
+        first_tx = int(rows["tx"].min())
+        all_tx = np.arange(first_tx, int(rows["tx"].max()) + 1)
+        outcome, frame, fully = _visibility(rows, first_tx, all_tx.size)
+        decodes = _apply_decodes(rows, decoded, matched, first_tx, outcome, frame)
+        outcomes = _outcome_records(transmitter, all_tx, outcome, frame, fully, decodes)
     summary = summarise(outcomes, false_decodes, len(truth))
     summary["message"] = receive_message(decoded, truth, transmitter).as_dict()
     return Evaluation(outcomes, false_decodes, summary)

@@ -75,6 +75,16 @@ def _payload_bits(records: list[dict], payload_bits: int) -> np.ndarray:
     return (np.frombuffer(text.encode("ascii"), dtype=np.uint8) == ord("1")).reshape(len(records), payload_bits)
 
 
+def first_readings(sequences: np.ndarray, n_packets: int) -> np.ndarray:
+    """Index of the first reading of each sequence number 0 … K−1 read, in sequence-number order.
+
+    Numbers outside 0 … K−1 (possible only through an undetected error) are
+    not packets of the message and are left out.
+    """
+    values, first = np.unique(sequences, return_index=True)
+    return first[(values >= 0) & (values < n_packets)]
+
+
 def decodable_at(sequences: np.ndarray, n_packets: int, strategy: str) -> int | None:
     """How many of the receptions (in order) make the message decodable, or None.
 
@@ -90,13 +100,11 @@ def decodable_at(sequences: np.ndarray, n_packets: int, strategy: str) -> int | 
         return None
     if strategy == "rlnc":
         return first_full_rank(combinations(sequences, n_packets))
-    in_range = sequences[(sequences >= 0) & (sequences < n_packets)]
-    if np.unique(in_range).size < n_packets:
+    first = first_readings(sequences, n_packets)
+    if first.size < n_packets:
         return None
     # The reception that brings the last missing sequence number.
-    _, first = np.unique(sequences, return_index=True)
-    valid = (sequences[first] >= 0) & (sequences[first] < n_packets)
-    return int(first[valid].max()) + 1
+    return int(first.max()) + 1
 
 
 def receive_message(decoded: list[dict], truth: list[dict], transmitter) -> MessageReception:
@@ -125,10 +133,7 @@ def receive_message(decoded: list[dict], truth: list[dict], transmitter) -> Mess
     if strategy == "rlnc":
         packets = eliminate(combinations(sequences[:needed], k), bits).solution
     else:
-        # The first reading of each sequence number, in sequence order.
-        _, first = np.unique(sequences[:needed], return_index=True)
-        order = first[(sequences[:needed][first] >= 0) & (sequences[:needed][first] < k)]
-        packets = bits[order]
+        packets = bits[first_readings(sequences[:needed], k)]
     message = depacketize(np.asarray(packets, dtype=np.uint8), len(transmitter.message))
     frame = int(head[-1]["frame"])
     by_frame = {t["frame"]: t for t in truth}

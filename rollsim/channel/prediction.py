@@ -35,12 +35,8 @@ def _cached_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: in
         figures[f"p_message_{strategy}"] = analytic.mmbp_p_message(M, N, r, p_e, n, strategy)
         figures[f"goodput_{strategy}_bps"] = analytic.mmbp_expected_goodput_bps(M, N, r, p_e, n, strategy,
                                                                                 payload_bits, sdu_s)
-    if M >= 1 and p_e < 1.0:
-        figures["expected_emissions_rlnc"] = rateless.rlnc_expected_emissions(M, N, p_e, n)
-        figures["goodput_rlnc_bps"] = payload_bits * n / (figures["expected_emissions_rlnc"] * sdu_s)
-    else:  # no ON slot, or every PHY-SDU lost: never decodable
-        figures["expected_emissions_rlnc"] = float("inf")
-        figures["goodput_rlnc_bps"] = 0.0
+    figures["expected_emissions_rlnc"], figures["goodput_rlnc_bps"] = rateless.rlnc_figures(M, N, p_e, n, payload_bits,
+                                                                                          sdu_s)
     return figures
 
 

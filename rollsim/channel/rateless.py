@@ -103,6 +103,23 @@ def rlnc_expected_goodput_bps(M: int, N: int, p_e: float, k: int, payload_bits: 
     ``payload_bits · K / (E[T] · sdu_duration_s)``, the convention of
     :func:`rollsim.channel.analytic.mmbp_expected_goodput_bps`.
     """
+    return _goodput_bps(rlnc_expected_emissions(M, N, p_e, k), k, payload_bits, sdu_duration_s)
+
+
+def rlnc_figures(M: int, N: int, p_e: float, k: int, payload_bits: float, sdu_duration_s: float) -> tuple[float, float]:
+    """``(E[T], goodput_bps)`` of random linear coding under the MMBP, for any slots and p_e.
+
+    A cycle without an ON slot, or p_e = 1, never decodes: (inf, 0.0), as
+    :func:`rollsim.channel.analytic.mmbp_expected_goodput_bps` gives 0 for a
+    message that can never complete.
+    """
+    if M < 1 or p_e >= 1.0:
+        return float("inf"), 0.0
+    expected = rlnc_expected_emissions(M, N, p_e, k)
+    return expected, _goodput_bps(expected, k, payload_bits, sdu_duration_s)
+
+
+def _goodput_bps(expected_emissions: float, k: int, payload_bits: float, sdu_duration_s: float) -> float:
     if not (payload_bits > 0 and sdu_duration_s > 0 and math.isfinite(sdu_duration_s)):
         raise ValueError(f"payload_bits and sdu_duration_s must be > 0, got {payload_bits}, {sdu_duration_s}")
-    return payload_bits * k / (rlnc_expected_emissions(M, N, p_e, k) * sdu_duration_s)
+    return payload_bits * k / (expected_emissions * sdu_duration_s)

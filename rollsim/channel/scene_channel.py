@@ -54,8 +54,7 @@ from rollsim.channel.eventsim import (
 from rollsim.optics.geometry import led_rows
 from rollsim.protocol.packets import n_packets as packets_of_message
 from rollsim.scene.loader import DISTANCE_WITHOUT_LENS, SEQUENCE_WRAP, relaxations_used
-from rollsim.protocol.rlnc import seed_space
-from rollsim.transmitter.schedule import RlncSchedule, Schedule
+from rollsim.transmitter.schedule import RlncSchedule, Schedule, schedule_for
 from rollsim.transmitter.transmitter import phy_from_scene
 
 if TYPE_CHECKING:
@@ -295,8 +294,7 @@ def broadcast_from_scene(scene: Scene, kind: str, *, java_float32: bool = False)
     channel = channel_from_scene(scene, kind, java_float32=java_float32)
     return SceneBroadcast(
         channel=channel,
-        schedule=(RlncSchedule(n, seed_space(link.header_bits)) if link.strategy == "rlnc"
-                  else Schedule(link.strategy, n, link.repeats)),
+        schedule=schedule_for(link.strategy, n, link.repeats, link.header_bits),
         header_bits=link.header_bits,
         payload_bits=link.payload_bits,
         warnings=_camcomsim_warnings(scene, channel, n) if kind == "camcomsim" else (),

@@ -88,10 +88,10 @@ def simulate_row(scene: Scene, options: dict) -> dict:
 def _predicted_goodput_bps(fit, link, n: int, sdu_s: float) -> float:
     """Expected goodput of the fitted MMBP for the link's strategy."""
     from rollsim.channel.analytic import mmbp_expected_goodput_bps
-    from rollsim.channel.rateless import rlnc_expected_goodput_bps
+    from rollsim.channel.rateless import rlnc_figures
 
     if link.strategy == "rlnc":
-        return rlnc_expected_goodput_bps(fit.M, fit.N, fit.p_e, n, link.payload_bits, sdu_s) if fit.p_e < 1 else 0.0
+        return rlnc_figures(fit.M, fit.N, fit.p_e, n, link.payload_bits, sdu_s)[1]
     return mmbp_expected_goodput_bps(fit.M, fit.N, link.repeats, fit.p_e, n, link.strategy, link.payload_bits, sdu_s)
 
 

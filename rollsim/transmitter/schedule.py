@@ -158,3 +158,16 @@ class RlncSchedule:
         packets.
         """
         return Schedule("rs", self.seed_space).cumulative(tx, weights)
+
+
+def schedule_for(strategy: str, n_packets: int, repeats: int, header_bits: int) -> Schedule | RlncSchedule:
+    """The emission schedule of a link: RP or RS with ``repeats``, or rlnc over the seeds its header cycles through.
+
+    The rlnc seed space is :func:`rollsim.protocol.rlnc.seed_space` of
+    ``header_bits`` (the largest prime the header holds).
+    """
+    if strategy == "rlnc":
+        from rollsim.protocol.rlnc import seed_space
+
+        return RlncSchedule(n_packets, seed_space(header_bits))
+    return Schedule(strategy, n_packets, repeats)

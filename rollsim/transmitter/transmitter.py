@@ -15,7 +15,7 @@ from rollsim.budget import check_memory
 from rollsim.protocol import PhyFormat, n_packets, packetize
 from rollsim.transmitter.chips import ChipSource, ConstantChips, DataChips, SquareChips, prefix_dtype
 from rollsim.transmitter.message import message_from_seed
-from rollsim.transmitter.schedule import RlncSchedule, Schedule
+from rollsim.transmitter.schedule import RlncSchedule, Schedule, schedule_for
 from rollsim.transmitter.waveform import Waveform
 
 if TYPE_CHECKING:
@@ -77,19 +77,10 @@ class Transmitter:
         last = int(np.ceil((t_end_s - self.waveform.start_s) / self.sdu_duration_s)) - 1
         return np.arange(first, max(first, last) + 1, dtype=np.int64)
 
-    def sent_payloads(self, sequence) -> np.ndarray:
-        """The payload bits sent under each sequence number (for ``rlnc``, each seed's combination)."""
-        sequence = np.asarray(sequence, dtype=np.int64)
-        if isinstance(self.schedule, RlncSchedule):
-            from rollsim.protocol.rlnc import encode
-
-            return encode(self.payloads, sequence).astype(np.uint8)
-        return self.payloads[sequence]
-
     def codeword_bits(self, tx) -> np.ndarray:
         """Header, payload and check bits of each emission, one row per tx."""
         seq = self.schedule.sequence_numbers(tx)
-        return self.phy.codewords(seq, self.sent_payloads(seq))
+        return self.phy.codewords(seq, sent_payloads(self.payloads, self.schedule, seq))
 
     def locate(self, t_s) -> dict[str, np.ndarray]:
         """What was being sent at times ``t_s``.
@@ -141,28 +132,30 @@ def transmitter_bytes(phy: PhyFormat, message_bytes: int, packets: int | None = 
     return 9 * message_bytes + packets * per_packet + block
 
 
-# Seeds combined at a time: the combination matrix (seeds x packets bytes)
-# stays a few MB for a message of thousands of packets.
+# Seeds combined at a time: the combination matrix (seeds x packets, as
+# int64 in the GF(2) product) stays a few tens of MB for a message of
+# thousands of packets.
 _CODED_BLOCK = 1 << 12
 
 
-def _encode_coded_blocks(phy: PhyFormat, payloads: np.ndarray, seed_space: int) -> np.ndarray:
-    """Chips of the coded PHY-SDU of every seed 0 … seed_space − 1 (row k: seed k)."""
-    from rollsim.protocol.rlnc import encode
+def sent_payloads(payloads: np.ndarray, schedule: Schedule | RlncSchedule, sequence) -> np.ndarray:
+    """The payload bits sent under each sequence number: the packet's, or for rlnc the seed's combination."""
+    sequence = np.asarray(sequence, dtype=np.int64)
+    if isinstance(schedule, RlncSchedule):
+        from rollsim.protocol.rlnc import encode
 
-    table = np.empty((seed_space, phy.sdu_chips), dtype=np.uint8)
-    for first in range(0, seed_space, _CODED_BLOCK):
-        seeds = np.arange(first, min(first + _CODED_BLOCK, seed_space))
-        table[first : seeds[-1] + 1] = phy.encode(seeds, encode(payloads, seeds).astype(np.uint8))
-    return table
+        return encode(payloads, sequence).astype(np.uint8)
+    return payloads[sequence]
 
 
-def _encode_blocks(phy: PhyFormat, payloads: np.ndarray) -> np.ndarray:
-    """Chips of every packet's PHY-SDU (row k: sequence number k), encoded block by block."""
-    table = np.empty((payloads.shape[0], phy.sdu_chips), dtype=np.uint8)
-    for first in range(0, payloads.shape[0], _ENCODE_BLOCK):
-        last = min(first + _ENCODE_BLOCK, payloads.shape[0])
-        table[first:last] = phy.encode(np.arange(first, last), payloads[first:last])
+def _encode_blocks(phy: PhyFormat, payloads: np.ndarray, schedule: Schedule | RlncSchedule) -> np.ndarray:
+    """Chips of the PHY-SDU of every sequence number (row k: sequence number k), block by block."""
+    n = schedule.n_sequences
+    block = _CODED_BLOCK if isinstance(schedule, RlncSchedule) else _ENCODE_BLOCK
+    table = np.empty((n, phy.sdu_chips), dtype=np.uint8)
+    for first in range(0, n, block):
+        sequence = np.arange(first, min(first + block, n))
+        table[first : sequence[-1] + 1] = phy.encode(sequence, sent_payloads(payloads, schedule, sequence))
     return table
 
 
@@ -204,18 +197,12 @@ def build_transmitter(
     check_memory(f"link.message_bytes = {len(message)} ({packets} packets of {phy.sdu_chips} chips)",
                  transmitter_bytes(phy, len(message)))
     payloads = packetize(message, phy.payload_bits)
-    schedule: Schedule | RlncSchedule
-    if strategy == "rlnc":
+    schedule = schedule_for(strategy, packets, repeats, phy.header_bits)
+    if isinstance(schedule, RlncSchedule):
         # One coded PHY-SDU per seed the header cycles through.
-        from rollsim.protocol.rlnc import seed_space
-
-        schedule = RlncSchedule(packets, seed_space(phy.header_bits))
         check_memory(f"link.header_bits = {phy.header_bits} (strategy rlnc: {schedule.seed_space} coded PHY-SDUs "
                      f"of {phy.sdu_chips} chips)", transmitter_bytes(phy, 0, schedule.seed_space))
-        sdu_chips = _encode_coded_blocks(phy, payloads, schedule.seed_space)
-    else:
-        schedule = Schedule(strategy, packets, repeats)
-        sdu_chips = _encode_blocks(phy, payloads)
+    sdu_chips = _encode_blocks(phy, payloads, schedule)
     chips: ChipSource
     if pattern == "data":
         chips = DataChips(schedule, sdu_chips)
