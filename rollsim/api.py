@@ -406,9 +406,7 @@ class Result:
         """The success trace in emission order, with times and scene (:class:`rollsim.calibrate.Trace`)."""
         from rollsim.calibrate import Trace
 
-        return Trace(np.array([o["success"] for o in self.outcomes], dtype=bool),
-                     np.array([o["start_s"] for o in self.outcomes], dtype=np.float64),
-                     np.array([f.start_s for f in self.truth], dtype=np.float64), self.scene, "<rollsim.evaluate>")
+        return Trace.from_outcomes(self.outcomes, self.truth, self.scene, "<rollsim.evaluate>")
 
     def to_dataframe(self):
         """The outcomes as a table (needs pandas)."""

@@ -18,7 +18,6 @@ import json
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
-
 from typing import Iterator
 
 from rollsim.budget import check_file_size

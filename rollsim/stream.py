@@ -14,8 +14,6 @@ from __future__ import annotations
 import time
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
 
@@ -111,13 +109,7 @@ def fitted_mmbp(evaluation, truth: list[dict], scene: Scene) -> dict | None:
     """
     from rollsim.calibrate import Trace, fit_mmbp
 
-    outcomes = evaluation.outcomes
-    trace = Trace(
-        np.array([o["success"] for o in outcomes], dtype=bool),
-        np.array([o["start_s"] for o in outcomes], dtype=np.float64),
-        np.array([t["start_s"] for t in truth], dtype=np.float64),
-        scene,
-    )
+    trace = Trace.from_outcomes(evaluation.outcomes, truth, scene)
     try:
         return fit_mmbp(trace).as_dict()
     except ValueError:

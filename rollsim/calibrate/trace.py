@@ -48,6 +48,25 @@ class Trace:
     scene: Scene | None = None
     source: str = "<trace>"
 
+    @classmethod
+    def from_outcomes(cls, outcomes: list[dict], truth, scene: Scene | None = None,
+                      source: str = "<trace>") -> "Trace":
+        """The trace of an evaluation: its outcomes in tx order and its frames' starts.
+
+        Parameters
+        ----------
+        outcomes : list of dict
+            :attr:`rollsim.evaluate.Evaluation.outcomes` (``success``, ``start_s``).
+        truth : iterable
+            The frames' truth records, dicts or objects with ``start_s``.
+        """
+        def start_of(frame):
+            return frame["start_s"] if isinstance(frame, dict) else frame.start_s
+
+        return cls(np.array([o["success"] for o in outcomes], dtype=bool),
+                   np.array([o["start_s"] for o in outcomes], dtype=np.float64),
+                   np.array([start_of(t) for t in truth], dtype=np.float64), scene, source)
+
 
 def _parse_success(row: dict, path: Path, line: int) -> bool:
     if "success" in row and row["success"] not in (None, ""):
@@ -97,7 +116,7 @@ def load_trace(path, source: str | None = None) -> Trace:
 
     ``source`` names the trace in results (default: ``path``).
     """
-    from rollsim.evaluate import read_jsonl
+    from rollsim.records import read_jsonl
     from rollsim.scene import load_scene
 
     path = Path(path)

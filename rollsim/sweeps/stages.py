@@ -129,10 +129,9 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
     message = summary["message"]
     row.update(message_decodable=message["decodable"], message_ok=message["message_ok"],
                goodput_received_bps=message["goodput_bps"])
-    success = np.array([o["success"] for o in evaluation.outcomes], dtype=bool)
     link, sdu_s, n = scene.link, sdu_duration_from_scene(scene), _packets(scene)
-    trace = Trace(success, np.array([o["start_s"] for o in evaluation.outcomes], dtype=np.float64),
-                  np.array([t["start_s"] for t in run.truth], dtype=np.float64), scene)
+    trace = Trace.from_outcomes(evaluation.outcomes, run.truth, scene)
+    success = trace.success
     try:
         fit = fit_mmbp(trace)
     except ValueError as exc:
