@@ -15,6 +15,7 @@ disk): no orphan keeps a core busy.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, Iterator, Optional, Sequence
@@ -81,8 +82,10 @@ def ordered_chunk_map(
 ) -> Iterator:
     """Yield the items of ``function(chunk, *args)`` for every chunk, in order.
 
-    With one worker everything runs in this process (after ``initializer``).
-    With more, at most ``2 × workers`` chunks are in flight at a time.
+    With one worker, or one chunk, everything runs in this process (after
+    ``initializer``). With more, one pool of at most as many workers as
+    chunks serves every chunk, at most ``2 × workers`` of them in flight at
+    a time.
 
     Parameters
     ----------
@@ -92,8 +95,14 @@ def ordered_chunk_map(
     chunks : iterable of list
     workers : int
     initializer, initargs
-        Run once in each worker process (and here, with one worker).
+        Run once in each worker process (or here, when everything runs here).
     """
+    # Every worker starts a process and runs the initializer (a render builds
+    # its pipeline there): a worker without a chunk would be start-up for nothing.
+    chunks = iter(chunks)
+    first = list(itertools.islice(chunks, max(workers, 1)))
+    workers = min(workers, len(first))
+    chunks = itertools.chain(first, chunks)
     if workers <= 1:
         if initializer is not None:
             initializer(*initargs)

@@ -9,12 +9,15 @@ from hypothesis import strategies as st
 
 from rollsim.optics import covered_rows, image_size_px, magnification
 from rollsim.optics.footprint import footprint
+from rollsim.optics.photopic import V_1924, photopic_efficiency
 from rollsim.optics.radiometry import (
+    AMBIENT_ILLUMINANTS,
     lambertian_luminance_cd_m2,
     led_luminance_cd_m2,
     photon_rate_per_pixel,
     photons_per_lumen_illuminant,
     photons_per_lumen_monochromatic,
+    photons_per_lumen_spectrum,
     sensor_illuminance_lx,
 )
 
@@ -84,6 +87,27 @@ def test_photons_per_lumen_of_white_illuminants_lies_between_green_and_red():
     for name in ("FL2", "D65", "A"):
         value = photons_per_lumen_illuminant(name)
         assert photons_per_lumen_monochromatic(555.0) < value < photons_per_lumen_monochromatic(650.0)
+
+
+def test_photopic_efficiency_is_colour_sciences_to_the_bit():
+    """V(λ) read without importing colour-science: its table, and its Sprague values at and between the
+    nodes and beyond the ends."""
+    import colour
+
+    v = colour.colorimetry.SDS_LEFS_PHOTOPIC["CIE 1924 Photopic Standard Observer"]
+    assert V_1924 == tuple(v.values.tolist()) and tuple(v.wavelengths) == tuple(range(360, 831))
+    wavelengths = [*np.arange(355.0, 835.5, 0.5), *np.random.default_rng(0).uniform(360.0, 830.0, 300),
+                   359.9999999, 360.0000001, 829.9999999, 830.0000001]
+    assert [photopic_efficiency(float(w)) for w in wavelengths] == [float(v[float(w)]) for w in wavelengths]
+    with pytest.raises(ValueError, match="finite"):
+        photopic_efficiency(float("nan"))
+
+
+@pytest.mark.parametrize("name", AMBIENT_ILLUMINANTS)
+def test_listed_photons_per_lumen_of_the_illuminants_are_colour_sciences(name):
+    import colour
+
+    assert photons_per_lumen_illuminant(name) == photons_per_lumen_spectrum(colour.SDS_ILLUMINANTS[name])
 
 
 def test_camera_equation():

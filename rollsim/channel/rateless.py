@@ -18,10 +18,11 @@ emissions up to and including the one that completes the rank.
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import Callable
 
 import numpy as np
-from scipy.stats import nbinom
 
 from rollsim.protocol.rlnc import receptions_to_full_rank_pmf
 
@@ -29,6 +30,37 @@ from rollsim.protocol.rlnc import receptions_to_full_rank_pmf
 TAIL = 1e-15
 # Largest cycle (M + N slots) enumerated phase by phase.
 MAX_CYCLE = 10**6
+
+
+@functools.lru_cache(maxsize=1)
+def negative_binomial() -> tuple[Callable, Callable]:
+    """``(pmf, isf)`` of the negative binomial, as ``scipy.stats.nbinom`` gives them.
+
+    ``scipy.stats.nbinom`` evaluates both with Boost ufuncs that SciPy keeps,
+    private, in ``scipy.special._ufuncs``: for valid arguments its pmf is the
+    ufunc clipped to [0, 1] and its isf the ufunc itself. Calling them here
+    gives the same numbers (tests/channel/test_rateless.py compares them)
+    without importing ``scipy.stats``, which took about a second of
+    ``rollsim describe``'s start-up. A SciPy that keeps them elsewhere gets
+    ``scipy.stats.nbinom``.
+    Arguments as ``nbinom.pmf(k, n, p)`` and ``nbinom.isf(q, n, p)``: k
+    failures before the n-th success of probability p.
+    """
+    try:
+        from scipy.special._ufuncs import _nbinom_isf, _nbinom_pmf
+    except ImportError:  # pragma: no cover - SciPy moved its private ufuncs
+        from scipy.stats import nbinom
+
+        return nbinom.pmf, nbinom.isf
+
+    def pmf(k, n, p):
+        return np.clip(_nbinom_pmf(k, n, p), 0, 1)
+
+    def isf(q, n, p):
+        with np.errstate(over="ignore"):  # as scipy.stats.nbinom (SciPy gh-17432)
+            return _nbinom_isf(q, n, p)
+
+    return pmf, isf
 
 
 def _check(M: int, N: int, p_e: float, k: int) -> None:
@@ -88,12 +120,13 @@ def rlnc_expected_emissions(M: int, N: int, p_e: float, k: int) -> float:
             break
         n_max *= 2
     q = 1.0 - p_e
+    nbinom_pmf, nbinom_isf = negative_binomial()
     # ON emissions needed for n receptions: S = n + F, F ~ NegBin(n, q).
-    f_max = int(nbinom.isf(TAIL, n_max, q)) + 1 if p_e > 0 else 0
+    f_max = int(nbinom_isf(TAIL, n_max, q)) + 1 if p_e > 0 else 0
     mean_index = on_emission_index_mean(M, N, n_max + f_max) + 1.0
     n = np.flatnonzero(pmf)[:, None]
     f = np.arange(f_max + 1)[None, :]
-    weights = nbinom.pmf(f, n, q) if p_e > 0 else np.ones((n.size, 1))
+    weights = nbinom_pmf(f, n, q) if p_e > 0 else np.ones((n.size, 1))
     return float(np.sum(pmf[n[:, 0]] * np.sum(weights * mean_index[n - 1 + f], axis=1)))
 
 

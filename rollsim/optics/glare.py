@@ -108,6 +108,27 @@ def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols
     return kernel
 
 
+def fft_convolve_full(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The full linear convolution of two real arrays of equal dimension, by FFT.
+
+    ``scipy.signal.fftconvolve(a, b, mode="full")`` through ``scipy.fft``
+    alone, with SciPy's transforms, sizes and products, so the same bits
+    (tests/render/test_emitter_light.py compares them): scipy.signal takes
+    about a second to import (it imports scipy.stats), longer than a
+    frame's render.
+    """
+    from scipy import fft
+
+    shape = [n1 + n2 - 1 for n1, n2 in zip(a.shape, b.shape, strict=True)]
+    # Axes of length 1 broadcast in the product, as in SciPy: no transform.
+    axes = [axis for axis in range(a.ndim) if a.shape[axis] != 1 and b.shape[axis] != 1]
+    if not axes:
+        return a * b
+    fast_shape = [fft.next_fast_len(shape[axis], True) for axis in axes]
+    spectrum = fft.rfftn(a, fast_shape, axes=axes) * fft.rfftn(b, fast_shape, axes=axes)
+    return fft.irfftn(spectrum, fast_shape, axes=axes)[tuple(slice(n) for n in shape)]
+
+
 def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float, core_px: float,
                  exponent: float) -> Footprint:
     """The LED's light on the sensor with veiling glare: (1 − η)·L + η·(L ⊗ M).
@@ -129,8 +150,6 @@ def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float
     Footprint
         The light over the whole frame (the halo reaches every pixel).
     """
-    from scipy.signal import fftconvolve  # here: an unlisted glare costs no scipy.signal import
-
     height, width = frame_shape
     out = np.zeros(frame_shape)
     if light.coverage.size == 0:
@@ -141,7 +160,7 @@ def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float
         ry = max(light.rows.stop, height - light.rows.start)
         rx = max(light.cols.stop, width - light.cols.start)
         kernel = moffat_kernel(core_px, exponent, ry, rx)
-        halo = fftconvolve(light.coverage.astype(np.float32), kernel, mode="full")
+        halo = fft_convolve_full(light.coverage.astype(np.float32), kernel)
         # halo[i, j] lies at frame row light.rows.start - ry + i, column light.cols.start - rx + j.
         top, left = ry - light.rows.start, rx - light.cols.start
         out += fraction * halo[top : top + height, left : left + width].astype(np.float64)

@@ -13,38 +13,40 @@ L = ρ · E_amb / π; for a distant background m → 0.
 Illuminance becomes a photon rate through the light's spectrum: a lux-second
 on one square metre is one lumen-second, and one lumen of a spectrum S(λ)
 carries  ∫ S λ/(h c) dλ / (K_m ∫ S V dλ)  photons, with V the CIE 1924
-photopic luminous efficiency function and K_m = 683 lm/W. colour-science
-supplies V, the LED spectral distribution and the CIE illuminants.
+photopic luminous efficiency function and K_m = 683 lm/W. V comes from
+:mod:`rollsim.optics.photopic` (colour-science's table, read without
+colour-science's two-second import). A CIE illuminant's photons per lumen
+were computed once through colour-science by :func:`photons_per_lumen_spectrum`
+and are listed in :data:`PHOTONS_PER_LUMEN_ILLUMINANTS` (tests/test_optics.py
+recomputes them), so ambient light costs no colour-science import either.
 """
 
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 import numpy as np
 
+from rollsim.optics.photopic import photopic_efficiency
 from rollsim.validation import as_positive, as_probability, check_nonnegative
 
 PLANCK_J_S = 6.62607015e-34
 LIGHT_SPEED_M_S = 299792458.0
 K_M_LM_PER_W = 683.0
-AMBIENT_ILLUMINANTS = ("FL2", "D65", "A", "FL11")
+# Photons per lumen of the CIE standard illuminants: photons_per_lumen_spectrum
+# of colour-science's SDS_ILLUMINANTS (0.4.7), as repr writes them.
+PHOTONS_PER_LUMEN_ILLUMINANTS = {
+    "FL2": 8118581125179521.0,
+    "D65": 1.4546011548667716e16,
+    "A": 2.1086614221521464e16,
+    "FL11": 8230551916603990.0,
+}
+AMBIENT_ILLUMINANTS = tuple(PHOTONS_PER_LUMEN_ILLUMINANTS)
 
 
-def _colour():
-    # colour-science is slow to import; only radiometry needs it.
-    import colour
-
-    return colour
-
-
-@lru_cache(maxsize=None)
 def luminous_efficiency(wavelength_nm: float) -> float:
-    """CIE 1924 photopic V(λ) at ``wavelength_nm`` (interpolated by colour)."""
-    colour = _colour()
-    v = colour.colorimetry.SDS_LEFS_PHOTOPIC["CIE 1924 Photopic Standard Observer"]
-    return float(v[wavelength_nm])
+    """CIE 1924 photopic V(λ) at ``wavelength_nm`` (:func:`rollsim.optics.photopic.photopic_efficiency`)."""
+    return photopic_efficiency(wavelength_nm)
 
 
 def photons_per_lumen_monochromatic(wavelength_nm: float) -> float:
@@ -63,8 +65,12 @@ def photons_per_lumen_monochromatic(wavelength_nm: float) -> float:
 
 
 def photons_per_lumen_spectrum(sd) -> float:
-    """Photons per lumen of a colour ``SpectralDistribution`` (any scale)."""
-    colour = _colour()
+    """Photons per lumen of a colour ``SpectralDistribution`` (any scale).
+
+    Imports colour-science (about two seconds).
+    """
+    import colour
+
     wavelengths_m = np.asarray(sd.wavelengths, dtype=np.float64) * 1e-9
     power = np.asarray(sd.values, dtype=np.float64)
     photons = np.trapezoid(power * wavelengths_m / (PLANCK_J_S * LIGHT_SPEED_M_S), sd.wavelengths)
@@ -72,12 +78,11 @@ def photons_per_lumen_spectrum(sd) -> float:
     return float(photons / lumens)
 
 
-@lru_cache(maxsize=None)
 def photons_per_lumen_illuminant(name: str) -> float:
     """Photons per lumen of a CIE standard illuminant (``FL2``, ``D65``, ...)."""
-    if name not in AMBIENT_ILLUMINANTS:
+    if name not in PHOTONS_PER_LUMEN_ILLUMINANTS:
         raise ValueError(f"unknown illuminant {name!r}; expected one of {list(AMBIENT_ILLUMINANTS)}")
-    return photons_per_lumen_spectrum(_colour().SDS_ILLUMINANTS[name])
+    return PHOTONS_PER_LUMEN_ILLUMINANTS[name]
 
 
 def led_luminance_cd_m2(luminous_intensity_cd: float, emitting_area_m2: float) -> float:

@@ -41,7 +41,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from rollsim.optics.radiometry import K_M_LM_PER_W, LIGHT_SPEED_M_S, PLANCK_J_S, _colour, photons_per_lumen_monochromatic
+from rollsim.optics.radiometry import K_M_LM_PER_W, LIGHT_SPEED_M_S, PLANCK_J_S, photons_per_lumen_monochromatic
 
 CAMERA_SENSITIVITIES = {
     "nikon_5100": "Nikon 5100 (NPL)",
@@ -51,6 +51,14 @@ SPECTRAL_STEPS = (1, 5, 10, "peak")
 GRID_NM = (360, 830)
 # Step at which the illuminants are integrated when the LED is taken as a line.
 PEAK_ILLUMINANT_STEP_NM = 10
+
+
+def _colour():
+    # colour-science takes about two seconds to import: only a spectral
+    # render (the bayer effect) pays for it.
+    import colour
+
+    return colour
 
 
 def _ohno_fwhm_per_width() -> float:

@@ -34,11 +34,12 @@ _CELL_COST_S = {"analytic": 0.001, "simulate": 0.2, "run": 1.0}
 
 # What each stage's cells import, loaded as a worker starts (in parallel with
 # the others and with the validation of the cells) rather than by the first
-# cell each worker runs: colour-science alone takes 2 s.
+# cell each worker runs. colour-science (2 s) is not among them: only the
+# bayer effect's spectra import it.
 STAGE_MODULES = {
     "analytic": ("rollsim.channel.prediction", "rollsim.sweeps.stages"),
     "simulate": ("rollsim.channel.scene_channel", "rollsim.channel.eventsim", "rollsim.sweeps.stages"),
-    "run": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.calibrate", "rollsim.stream", "decoder", "colour"),
+    "run": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.calibrate", "rollsim.stream", "decoder"),
 }
 
 

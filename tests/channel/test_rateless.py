@@ -5,7 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from rollsim.channel.rateless import on_emission_index_mean, rlnc_expected_emissions, rlnc_expected_goodput_bps
+from rollsim.channel.rateless import (
+    negative_binomial,
+    on_emission_index_mean,
+    rlnc_expected_emissions,
+    rlnc_expected_goodput_bps,
+)
 from rollsim.protocol.gf2 import first_full_rank
 from rollsim.protocol.rlnc import combinations, expected_receptions_to_full_rank
 
@@ -95,3 +100,16 @@ def test_a_capped_rateless_run_reports_its_rank():
     assert summary["completed_fraction"] == 0.0
     # 100 emissions over a 1-in-10 ON cycle: 10 receptions, each raising the rank but for 2^-40.
     assert summary["metrics"]["unique_receptions"]["mean"] == 10
+
+
+@pytest.mark.parametrize("p", [0.999, 0.95, 0.5, 0.01, 1.0])
+def test_the_negative_binomial_is_scipy_stats_to_the_bit(p):
+    """pmf and isf without importing scipy.stats: nbinom's numbers, bit for bit."""
+    from scipy.stats import nbinom
+
+    pmf, isf = negative_binomial()
+    k, n = np.arange(80)[None, :], np.array([1, 2, 5, 22, 40, 200])[:, None]
+    assert pmf(k, n, p).tobytes() == nbinom.pmf(k, n, p).tobytes()
+    for tail in (1e-15, 1e-6, 0.5):
+        for count in (1, 22, 352):
+            assert isf(tail, count, p) == nbinom.isf(tail, count, p)

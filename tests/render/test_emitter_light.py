@@ -10,7 +10,7 @@ from scipy.integrate import quad
 from rollsim.errors import SceneError
 from rollsim.optics.emitter import profiled_light, radial_table_light
 from rollsim.optics.footprint import Footprint, footprint
-from rollsim.optics.glare import glare_core_px, glared_light, moffat_kernel, moffat_mass_beyond
+from rollsim.optics.glare import fft_convolve_full, glare_core_px, glared_light, moffat_kernel, moffat_mass_beyond
 from rollsim.render import RenderPipeline
 from rollsim.scene import load_scene
 
@@ -94,6 +94,19 @@ def test_glare_is_linear_in_the_light():
     both.coverage[0, 0], both.coverage[50, 60] = 1.0, 2.5
     sum_of = glared_light(a, FRAME, 0.1, 5.0, 2.0).dense(FRAME) + glared_light(b, FRAME, 0.1, 5.0, 2.0).dense(FRAME)
     np.testing.assert_allclose(glared_light(both, FRAME, 0.1, 5.0, 2.0).dense(FRAME), sum_of, rtol=1e-5, atol=1e-9)
+
+
+@pytest.mark.parametrize("shape_a, shape_b", [((13, 17), (31, 29)), ((1, 7), (5, 9)), ((7, 1), (5, 9)), ((1, 1), (3, 3)),
+                                              ((4, 6), (1, 1))])
+def test_fft_convolution_is_scipy_signals_to_the_bit(shape_a, shape_b):
+    """The halo's convolution, without importing scipy.signal, gives fftconvolve's float32 bits."""
+    from scipy.signal import fftconvolve
+
+    rng = np.random.default_rng(sum(shape_a + shape_b))
+    a, b = rng.random(shape_a, dtype=np.float32), rng.random(shape_b, dtype=np.float32)
+    expected, got = fftconvolve(a, b, mode="full"), fft_convolve_full(a, b)
+    assert (got.dtype, got.shape) == (expected.dtype, expected.shape)
+    assert got.tobytes() == expected.tobytes()
 
 
 # ----------------------------------------------------------- the face's profile
