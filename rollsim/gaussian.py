@@ -60,3 +60,44 @@ def truncated_normal(uniform: np.ndarray, sigma: float, bound: float) -> np.ndar
     p = lo + 2.0 * half * (0.5 - lo)
     z = np.maximum(ndtri(np.maximum(p, np.finfo(float).tiny)), -bound / sigma)
     return np.clip(np.where(uniform < 0.5, z, -z) * sigma, -bound, bound)
+
+
+# ------------------------------------------------ from 32-bit random words
+#
+# The render's compiled noise kernels draw their uniforms from a counter-based
+# generator (rollsim.counter_rng), one 32-bit word per deviate. The word's top
+# 16 bits pick the bin, as ``table`` does; in the two outermost bins its low
+# 16 bits place the deviate in the tail by the exact quantile at the word's
+# centre, (w + 1/2)/2^32: tails out to ±6.34σ, where the 2^-32 resolution of
+# the word ends (the normal has 2.3e-10 of its mass beyond).
+
+
+@lru_cache(maxsize=1)
+def normal_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Body, low-tail and high-tail tables of :func:`normal_from_word`, float32, 65,536 entries each."""
+    low = ndtri((np.arange(_BINS, dtype=np.float64) + 0.5) / 2.0**32).astype(np.float32)
+    high = (-low[::-1]).copy()
+    for table in (low, high):
+        table.setflags(write=False)
+    return _bin_medians(), low, high
+
+
+def normal_from_word(word, body, low, high):
+    """A standard normal deviate (float32) from one 32-bit random word (scalar; a kernel helper)."""
+    top = word >> np.uint64(16)
+    if top == 0:
+        return low[word & np.uint64(0xFFFF)]
+    if top == _BINS - 1:
+        return high[word & np.uint64(0xFFFF)]
+    return body[top]
+
+
+def normal_from_words(word: np.ndarray, body: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """Standard normal deviates (float32) from 32-bit random words held in uint64 (see :func:`normal_from_word`)."""
+    top = (word >> np.uint64(16)).astype(np.int64)
+    z = body[top]
+    fine = (word & np.uint64(0xFFFF)).astype(np.int64)
+    tail = np.flatnonzero((top == 0) | (top == _BINS - 1))
+    if tail.size:
+        z[tail] = np.where(top[tail] == 0, low[fine[tail]], high[fine[tail]])
+    return z

@@ -27,3 +27,35 @@ def test_table_reaches_the_tails_exactly():
 def test_unknown_method():
     with pytest.raises(ValueError, match="unknown method"):
         standard_normal(np.random.default_rng(0), 3, "ziggurat")
+
+
+def _all_words_of_bins(bins: np.ndarray, fine: np.ndarray) -> np.ndarray:
+    return (bins.astype(np.uint64) << np.uint64(16)) | fine.astype(np.uint64)
+
+
+def test_word_table_follows_the_normal_law():
+    from rollsim.gaussian import normal_from_words, normal_tables
+
+    words = np.random.default_rng(5).integers(0, 2**32, size=2_000_000, dtype=np.uint64)
+    z = normal_from_words(words, *normal_tables())
+    assert z.dtype == np.float32
+    assert abs(z.mean()) < 0.003 and abs(z.std() - 1) < 0.003
+    assert stats.kstest(z, "norm").pvalue > 1e-3
+
+
+def test_word_table_tails_are_the_quantiles_of_the_word_centres():
+    """Every word of the two outermost bins maps to the normal quantile at its centre (w + 1/2)/2^32,
+    so the tails reach +-6.34 sigma and mirror each other exactly."""
+    from rollsim.gaussian import normal_from_word, normal_from_words, normal_tables
+
+    tables = normal_tables()
+    fine = np.arange(65536)
+    low = normal_from_words(_all_words_of_bins(np.zeros(65536), fine), *tables)
+    high = normal_from_words(_all_words_of_bins(np.full(65536, 65535), fine), *tables)
+    centres = (fine + 0.5) / 2.0**32
+    assert np.allclose(low, stats.norm.ppf(centres), rtol=1e-6)
+    assert np.array_equal(high, -low[::-1])
+    assert low.min() == pytest.approx(-6.34, abs=0.01) and np.all(np.diff(low) > 0)
+    # The scalar (kernel) form agrees with the array form.
+    for word in (0, 1, 65535, 65536, 2**31, 2**32 - 1):
+        assert normal_from_word(np.uint64(word), *tables) == normal_from_words(np.array([word], np.uint64), *tables)[0]

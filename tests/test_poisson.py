@@ -1,4 +1,4 @@
-"""The exact Poisson sampler: its law, against scipy's pmf, on every path."""
+"""The exact Poisson sampler: its law against scipy's pmf on every path, its decomposition, its two twins."""
 
 import warnings
 
@@ -6,7 +6,19 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rollsim.sensor.poisson import MAX_TABLE_MEAN, MIN_RUN, poisson
+from rollsim.sensor.chain import ChainKeys, _chain_numpy, run_chain, shot_poisson
+from rollsim.sensor.poisson import (
+    CLASS_BITS,
+    CLASS_MEANS,
+    GAUSSIAN_ABOVE_E,
+    TABLES,
+    class_mean,
+    class_of_remainder,
+    exp_neg,
+    poisson,
+    poisson_numpy,
+    split_class,
+)
 
 
 def _chi_square_p(sample: np.ndarray, mean: float) -> float:
@@ -22,38 +34,81 @@ def _chi_square_p(sample: np.ndarray, mean: float) -> float:
     return stats.chi2.sf(chi, max(1, keep2.sum() - 1))
 
 
-@pytest.mark.parametrize("mean", [1e-3, 0.7, 4.1, 12.1, 33.3, 250.0, 9000.0, 2 * MAX_TABLE_MEAN])
+# Below 1 (remainder only), on a class mean (no remainder), between class
+# means, one table step, two table steps (>= 256), three (>= 2^16).
+@pytest.mark.parametrize("mean", [1e-3, 0.7, 1.0, 4.1, 10.25, 12.1, 33.3, 250.0, 300.7, 9000.0, 70000.5])
 def test_constant_mean_follows_the_poisson_law(mean):
     sample = poisson(np.random.default_rng(int(mean * 10) + 1), np.full((300, 400), mean))
+    assert sample.dtype == np.float32 and sample.shape == (300, 400)
     assert _chi_square_p(sample.ravel(), mean) > 1e-4
+
+
+def test_every_pixel_its_own_mean_follows_the_law():
+    """Means drawn at random (vignetting, glare, PRNU): the probability integral
+    transform of each count is uniform (randomised for the discrete law)."""
+    rng = np.random.default_rng(4)
+    lam = rng.uniform(0.0, 60.0, size=(400, 500))
+    sample = poisson(np.random.default_rng(9), lam).astype(np.float64)
+    v = rng.random(lam.shape)
+    pit = stats.poisson.cdf(sample - 1, lam) + v * stats.poisson.pmf(sample, lam)
+    assert stats.kstest(pit.ravel(), "uniform").pvalue > 1e-4
+
+
+def test_means_beyond_the_tables_are_gaussian_with_the_poisson_moments():
+    lam = np.full((200, 200), 3.0 * GAUSSIAN_ABOVE_E)
+    sample = poisson(np.random.default_rng(2), lam).astype(np.float64)
+    z = (sample - lam) / np.sqrt(lam)
+    assert abs(z.mean()) < 0.02 and abs(z.std() - 1.0) < 0.02
 
 
 def test_zero_mean_gives_zero():
     assert not poisson(np.random.default_rng(0), np.zeros((50, 60))).any()
 
 
-def test_row_constant_means_use_tables_and_follow_the_law():
-    """Rows of different means (the LED interior), short runs (edges) and a
-    background: each group follows its own Poisson law."""
-    rng = np.random.default_rng(4)
-    means = np.linspace(2.0, 40.0, 200)
-    lam = np.repeat(means[:, None], 300, axis=1)
-    lam[:, :5] = rng.uniform(1, 5, size=(200, 5))  # short runs -> numpy path
-    lam[:, -50:] = 12.1  # a background run
-    sample = poisson(np.random.default_rng(9), lam)
-    # Standardised residuals of each table row are N(0, 1) overall.
-    body = sample[:, 5:-50]
-    z = (body - means[:, None]) / np.sqrt(means[:, None])
-    assert abs(z.mean()) < 0.01 and abs(z.std() - 1) < 0.01
-    assert _chi_square_p(sample[:, -50:].ravel(), 12.1) > 1e-4
-    assert (sample[:, :5] >= 0).all() and float(sample[:, :5].mean()) == pytest.approx(lam[:, :5].mean(), rel=0.1)
+def test_the_split_is_exact_and_the_class_means_agree():
+    """g <= lambda, lambda - g is exact and below lambda / 2^CLASS_BITS, and the
+    kernels' class ids and means (frexp, the class-mean table) are split_class's."""
+    lam = np.random.default_rng(1).uniform(1.0, GAUSSIAN_ABOVE_E, 5000)
+    lam = np.r_[lam, 1.0, 255.99, 256.0, np.nextafter(GAUSSIAN_ABOVE_E, 0)]
+    ids, g = split_class(lam)
+    assert (g <= lam).all() and (lam - g < lam / 2**CLASS_BITS).all()
+    assert ((lam - g) + g == lam).all()
+    assert np.array_equal(CLASS_MEANS[ids], g) and np.array_equal(class_mean(ids), g)
+    assert [class_of_remainder(x) for x in lam[:200]] == list(ids[:200])
 
 
-def test_short_runs_only_fall_back_to_numpy():
-    lam = np.random.default_rng(3).uniform(1, 20, size=(100, MIN_RUN - 1))
-    sample = poisson(np.random.default_rng(5), lam)
-    z = (sample - lam) / np.sqrt(lam)
-    assert abs(z.mean()) < 0.05 and abs(z.std() - 1) < 0.05
+def test_exp_polynomial_is_e_to_the_minus_r():
+    r = np.linspace(0.0, 1.0, 1001)[:-1]
+    # The documented budget: truncation after 1/14! is below 1/15! = 7.6e-13, far under the uniforms' 2^-32.
+    assert np.max(np.abs(exp_neg(r) - np.exp(-r))) < 1e-12
+
+
+def test_compiled_kernel_equals_the_numpy_twin():
+    """Byte for byte, on every path: below 1, one, two and three table steps, Gaussian, zero."""
+    rng = np.random.default_rng(0)
+    lam = np.concatenate([np.full(3000, 12.1), rng.uniform(0, 40, 3000), rng.uniform(200, 7e4, 500),
+                          [0.0, 0.5, 1.0, 2.0**21, 3e6]])
+    key = np.uint64(12345)
+    assert np.array_equal(poisson_numpy(lam, key), shot_poisson(key, lam))
+
+
+def test_tables_are_built_once_and_do_not_change_the_result():
+    lam = np.full((20, 30), 17.77)
+    key = np.uint64(3)
+    first = shot_poisson(key, lam)
+    built = int((TABLES.slot >= 0).sum())
+    again = shot_poisson(key, lam)
+    assert np.array_equal(first, again) and int((TABLES.slot >= 0).sum()) == built
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -1.0])
+def test_bad_means_are_refused(bad):
+    lam = np.full((4, 4), 3.0)
+    lam[2, 1] = bad
+    with pytest.raises(ValueError, match="finite and non-negative"):
+        poisson(np.random.default_rng(0), lam)
+    with pytest.raises(ValueError, match="finite and non-negative"):
+        run_chain(lam, "gaussian", ChainKeys(shot=np.uint64(1)))
 
 
 def test_deterministic_and_finite_without_warnings():
@@ -63,5 +118,6 @@ def test_deterministic_and_finite_without_warnings():
         warnings.simplefilter("error")
         a = poisson(np.random.default_rng(1), lam)
         b = poisson(np.random.default_rng(1), lam)
-    assert np.array_equal(a, b) and np.isfinite(a).all()
+        c = _chain_numpy(lam.ravel(), "poisson", ChainKeys(shot=np.uint64(7)), None, None, None, None)
+    assert np.array_equal(a, b) and np.isfinite(a).all() and np.isfinite(c).all()
     assert not a[10:20, 5:40].any()

@@ -34,6 +34,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from rollsim.seeds import rng as named_rng
+from rollsim.sensor.chain import ChainStep
 
 if TYPE_CHECKING:
     from rollsim.optics.footprint import Footprint
@@ -76,11 +77,17 @@ StageRun = Callable[["FrameState"], None]
 
 @dataclass(frozen=True)
 class Stage:
-    """A named step of the pipeline, bound to its per-scene constants."""
+    """A named step of the pipeline, bound to its per-scene constants.
+
+    ``chain_step`` marks a step of the sensor chain from shot noise to the
+    output (:mod:`rollsim.sensor.chain`): consecutive such stages run as one
+    pass (:func:`rollsim.render.stages.fuse_chain`), with the same result.
+    """
 
     name: str
     slot: str
     run: StageRun
+    chain_step: Optional[ChainStep] = None
 
     def __call__(self, state: FrameState) -> None:
         self.run(state)
@@ -101,6 +108,9 @@ class Effect:
         no per-frame stage.
     build_stage : callable or None
         ``(setup, params) -> run``: the per-frame work, bound once per scene.
+    chain_step : callable or None
+        ``(setup, params) -> ChainStep or None``: the stage's step of the
+        sensor chain, for an effect the chain can run in its one pass.
     prepare : callable or None
         ``(setup, params) -> setup``: the per-scene hook.
     check : callable or None
@@ -129,6 +139,7 @@ class Effect:
     reads: tuple[str, ...] = ()
     writes: tuple[str, ...] = ()
     setup_bytes_per_pixel: int = 0
+    chain_step: Optional[Callable[[Any, Any], Optional[ChainStep]]] = None
 
     def __post_init__(self) -> None:
         if not self.name.isidentifier():
@@ -152,7 +163,8 @@ class Effect:
         """Its stage bound to ``setup``, or None for a per-scene-only effect."""
         if self.build_stage is None or self.slot is None:
             return None
-        return Stage(self.stage_name(params), self.slot, self.build_stage(setup, params))
+        step = self.chain_step(setup, params) if self.chain_step is not None else None
+        return Stage(self.stage_name(params), self.slot, self.build_stage(setup, params), step)
 
     def errors(self, scene: Scene, params: EffectParams, listed: frozenset) -> list[str]:
         """Why ``scene`` cannot have this effect: its check, requirements and exclusions."""

@@ -1,26 +1,27 @@
 """``shot_noise``: photon shot noise on the mean electrons.
 
-``poisson`` draws the exact Poisson count of every pixel
-(:mod:`rollsim.sensor.poisson`); ``gaussian`` its approximation N(μ, μ),
-one table normal deviate per pixel (:mod:`rollsim.gaussian`). A colour
-filter array's mosaic (``setup.cfa_pattern``) is sampled by CFA phase,
-where the Poisson sampler's fast runs of equal means are.
+``poisson`` draws the exact Poisson count of every pixel, whether pixels
+share a mean or each has its own (:mod:`rollsim.sensor.poisson`);
+``gaussian`` its approximation N(μ, μ), μ + √μ·z with z from the normal
+word table (:func:`rollsim.gaussian.normal_from_word`). Both draw from the
+frame's ``shot_noise`` stream through a counter-based generator, in the
+sensor chain's one pass when the stages after it allow
+(:mod:`rollsim.sensor.chain`).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Literal
 
-import numpy as np
-
+from rollsim.counter_rng import stream_key
 from rollsim.effects.base import Effect, EffectParams, StageRun
-from rollsim.gaussian import standard_normal
-from rollsim.sensor.cfa import poisson_by_phase
-from rollsim.sensor.poisson import poisson
+from rollsim.sensor.chain import ChainKeys, ChainStep, run_chain
 
 if TYPE_CHECKING:
     from rollsim.render.setup import SceneSetup
     from rollsim.render.state import FrameState
+
+STREAM = "shot_noise"
 
 
 class ShotNoise(EffectParams):
@@ -30,22 +31,16 @@ class ShotNoise(EffectParams):
 
 
 def build_stage(setup: SceneSetup, params: ShotNoise) -> StageRun:
-    if params.method == "poisson":
-        sampler = poisson if setup.cfa_pattern is None else poisson_by_phase
+    method = params.method
 
-        def run(state: FrameState) -> None:
-            state.electrons = sampler(state.rng("shot_noise"), state.electrons)
+    def run(state: FrameState) -> None:
+        state.electrons = run_chain(state.electrons, method, ChainKeys(shot=stream_key(state.rng(STREAM))))
 
-        return run
+    return run
 
-    def run_gaussian(state: FrameState) -> None:
-        mean = state.electrons.astype(np.float32)
-        noise = standard_normal(state.rng("shot_noise"), mean.shape, "table")
-        noise *= np.sqrt(mean)
-        noise += mean
-        state.electrons = noise
 
-    return run_gaussian
+def chain_step(setup: SceneSetup, params: ShotNoise) -> ChainStep:
+    return ChainStep("shot", params.method, STREAM)
 
 
 EFFECT = Effect(
@@ -53,7 +48,7 @@ EFFECT = Effect(
     params=ShotNoise,
     slot="shot",
     build_stage=build_stage,
+    chain_step=chain_step,
     variant="method",
-    reads=("setup.cfa_pattern",),
     writes=("state.electrons",),
 )

@@ -9,7 +9,7 @@ import numpy as np
 
 from rollsim.budget import check_memory
 from rollsim.render.setup import SceneSetup, build_setup
-from rollsim.render.stages import Stage, assemble_stages, prepare_setup
+from rollsim.render.stages import Stage, assemble_stages, fuse_chain, prepare_setup
 from rollsim.render.state import FrameState
 from rollsim.render.truth import frame_truth
 
@@ -74,6 +74,11 @@ class RenderPipeline:
     ----------
     scene : Scene
         A validated scene.
+    fuse : bool
+        Run consecutive steps of the sensor chain (shot noise to output) as
+        one pass (:func:`rollsim.render.stages.fuse_chain`): the same
+        frames, faster. Without it every stage runs alone and fills in its
+        own field of the frame state (``dn`` for one).
 
     Raises
     ------
@@ -81,28 +86,31 @@ class RenderPipeline:
         A frame too large for the memory budget (:mod:`rollsim.budget`).
     """
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Scene, fuse: bool = True):
         check_render_memory(scene)
-        self._init(build_setup(scene))
+        self._init(build_setup(scene), fuse)
 
-    def _init(self, setup: SceneSetup) -> None:
+    def _init(self, setup: SceneSetup, fuse: bool = True) -> None:
         self.setup = prepare_setup(setup)
-        self.stages: tuple[Stage, ...] = tuple(assemble_stages(self.setup))
+        # The stages as the scene lists them, and as they run (chain steps fused).
+        self.planned_stages: tuple[Stage, ...] = tuple(assemble_stages(self.setup))
+        self.stages: tuple[Stage, ...] = tuple(fuse_chain(list(self.planned_stages)) if fuse else self.planned_stages)
 
     @classmethod
-    def from_setup(cls, setup: SceneSetup) -> "RenderPipeline":
+    def from_setup(cls, setup: SceneSetup, fuse: bool = True) -> "RenderPipeline":
         """A pipeline over a given (possibly modified) setup, e.g. a custom transmitter.
 
         The effects' per-scene hooks run unless ``setup`` is already
         prepared (a pipeline's own ``setup`` is).
         """
         pipeline = cls.__new__(cls)
-        pipeline._init(setup)
+        pipeline._init(setup, fuse)
         return pipeline
 
     @property
     def stage_names(self) -> tuple[str, ...]:
-        return tuple(stage.name for stage in self.stages)
+        """The names of the scene's stages, one per core step and listed effect (before fusing)."""
+        return tuple(stage.name for stage in self.planned_stages)
 
     def run_stages(self, index: int) -> FrameState:
         """Run every stage for frame ``index`` and return the final state."""

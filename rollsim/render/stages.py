@@ -27,13 +27,15 @@ import numpy as np
 
 from rollsim.effects.base import SLOTS, Stage, on_box
 from rollsim.errors import RollsimError
+from rollsim.counter_rng import stream_key
 from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.cfa import demosaic
+from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_chain
 
 if TYPE_CHECKING:
     from rollsim.render.setup import SceneSetup
 
-__all__ = ["SLOTS", "Stage", "assemble_stages", "prepare_setup"]
+__all__ = ["SLOTS", "Stage", "assemble_stages", "fuse_chain", "prepare_setup"]
 
 # ------------------------------------------------------------------ core
 
@@ -89,7 +91,7 @@ def full_well_stage(setup: SceneSetup) -> Stage:
     def run(state):
         np.clip(state.electrons, 0.0, full_well, out=state.electrons)
 
-    return Stage("full_well", "full_well", run)
+    return Stage("full_well", "full_well", run, ChainStep("full_well", float(full_well)))
 
 
 def adc_stage(setup: SceneSetup) -> Stage:
@@ -98,7 +100,7 @@ def adc_stage(setup: SceneSetup) -> Stage:
     def run(state):
         state.dn = electrons_to_dn(state.electrons, gain, cam.black_level_dn, cam.adc_bits)
 
-    return Stage("adc", "adc", run)
+    return Stage("adc", "adc", run, ChainStep("adc", Adc(float(gain), int(cam.black_level_dn), int(cam.adc_bits))))
 
 
 def output_stage(setup: SceneSetup) -> Stage:
@@ -108,7 +110,7 @@ def output_stage(setup: SceneSetup) -> Stage:
         def run(state):
             state.image = state.dn
 
-        return Stage("raw16", "output", run)
+        return Stage("raw16", "output", run, ChainStep("output", None))
     if cam.output == "gray8":
         # Every DN maps to one gray level: a table lookup per pixel (with the tone curve's).
         lut = gray8_lut(cam.black_level_dn, cam.adc_bits, setup.tone)
@@ -116,7 +118,7 @@ def output_stage(setup: SceneSetup) -> Stage:
         def run(state):
             state.image = lut[state.dn]
 
-        return Stage("gray8" if setup.tone is None else "gray8_tone_curve", "output", run)
+        return Stage("gray8" if setup.tone is None else "gray8_tone_curve", "output", run, ChainStep("output", lut))
     if cam.output == "rgb8":
         # The scene loader lets rgb8 through only with the bayer effect.
         pattern, method, lut = setup.cfa_pattern, setup.demosaic, gray8_lut(cam.black_level_dn, cam.adc_bits, setup.tone)
@@ -167,3 +169,72 @@ def assemble_stages(setup: SceneSetup) -> list[Stage]:
     # Stable sort: by slot, core first within a slot, then registry order.
     ranked = [(order[s.slot], 0, s) for s in core] + [(order[s.slot], 1, s) for s in stages if s is not None]
     return [s for *_, s in sorted(ranked, key=lambda item: item[:2])]
+
+
+# ------------------------------------------------------------ the chain
+
+
+# A chain starts where the electrons become float32: at shot or read noise.
+# (Without noise the full-well clip and the ADC work on the float64 means.)
+_CHAIN_STARTS = ("shot", "read")
+
+
+def _chain_run_length(stages: list[Stage], first: int) -> int:
+    """How many stages from ``first`` on form one sensor chain: a noise step, then steps in chain order."""
+    step = stages[first].chain_step
+    if step is None or step.kind not in _CHAIN_STARTS:
+        return 0
+    rank = CHAIN_ORDER.index(step.kind)
+    length = 1
+    for stage in stages[first + 1:]:
+        following = stage.chain_step
+        if following is None or CHAIN_ORDER.index(following.kind) <= rank:
+            break
+        rank = CHAIN_ORDER.index(following.kind)
+        length += 1
+    return length
+
+
+def fused_chain_stage(run: list[Stage]) -> Stage:
+    """One stage doing the work of ``run``'s chain steps in one pass (:mod:`rollsim.sensor.chain`).
+
+    Each noise step keys its counter stream from its own named stream, as
+    the stage alone does, so the result is the same bytes as the stages run
+    one by one (tested).
+    """
+    steps = {stage.chain_step.kind: stage.chain_step for stage in run if stage.chain_step is not None}
+    shot, read = steps.get("shot"), steps.get("read")
+    full_well = steps["full_well"].value if "full_well" in steps else None
+    adc = steps["adc"].value if "adc" in steps else None
+    output = steps.get("output")
+    last = CHAIN_ORDER[max(CHAIN_ORDER.index(kind) for kind in steps)]
+
+    def run_fused(state):
+        keys = ChainKeys(shot=None if shot is None else stream_key(state.rng(shot.stream)),
+                         read=None if read is None else stream_key(state.rng(read.stream)))
+        result = run_chain(state.electrons, None if shot is None else shot.value, keys, full_well_e=full_well,
+                           read_sigma_e=None if read is None else read.value, adc=adc,
+                           lut=None if output is None else output.value)
+        if last in ("shot", "full_well", "read"):
+            state.electrons = result
+        elif last == "adc" or output.value is None:  # raw16 output is the DN
+            state.dn = result
+        if last == "output":
+            state.image = result
+
+    return Stage("+".join(stage.name for stage in run), run[0].slot, run_fused)
+
+
+def fuse_chain(stages: list[Stage]) -> list[Stage]:
+    """``stages`` with each run of two or more consecutive sensor-chain steps fused into one stage."""
+    fused: list[Stage] = []
+    index = 0
+    while index < len(stages):
+        length = _chain_run_length(stages, index)
+        if length >= 2:
+            fused.append(fused_chain_stage(stages[index:index + length]))
+            index += length
+        else:
+            fused.append(stages[index])
+            index += 1
+    return fused

@@ -14,10 +14,8 @@ name the pattern one pixel further along the diagonal, so ``RGGB`` is
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
-from rollsim.sensor.poisson import poisson
 
 CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
 DEMOSAIC_METHODS = ("bilinear", "edge_aware", "vng")
@@ -53,6 +51,8 @@ def demosaic_code(pattern: str, method: str) -> int:
         raise ValueError(f"unknown CFA pattern {pattern!r}; expected one of {list(CFA_PATTERNS)}")
     if method not in DEMOSAIC_METHODS:
         raise ValueError(f"unknown demosaicing method {method!r}; expected one of {list(DEMOSAIC_METHODS)}")
+    import cv2  # OpenCV only where a mosaic is demosaiced: loading a scene does not need it
+
     return getattr(cv2, f"COLOR_Bayer{_OPENCV_NAME[pattern]}2RGB{_OPENCV_SUFFIX[method]}")
 
 
@@ -74,19 +74,6 @@ def demosaic(mosaic: np.ndarray, pattern: str, method: str) -> np.ndarray:
     """
     if mosaic.dtype != np.uint8:
         raise ValueError(f"demosaicing needs an 8-bit mosaic, got {mosaic.dtype}")
+    import cv2
+
     return cv2.cvtColor(mosaic, demosaic_code(pattern, method))
-
-
-def poisson_by_phase(rng: np.random.Generator, lam: np.ndarray) -> np.ndarray:
-    """Exact Poisson deviates of a mosaic's means, sampled one CFA phase at a time.
-
-    :func:`rollsim.sensor.poisson.poisson` is fast on runs of equal means
-    along rows; a mosaic alternates channels from pixel to pixel and has no
-    such runs, but each of its four 2×2 phases has them again. The law is
-    the same; only the speed differs.
-    """
-    out = np.empty(lam.shape, dtype=np.float32)
-    for dy in (0, 1):
-        for dx in (0, 1):
-            out[dy::2, dx::2] = poisson(rng, lam[dy::2, dx::2])
-    return out

@@ -1,48 +1,70 @@
-"""Exact Poisson sampling, fast where a frame repeats the same mean.
+"""Exact Poisson sampling, fast whether pixels share a mean or each has its own.
 
-A rendered frame's mean-electron image is mostly made of long runs of equal
-values along each row: the uniform background, and the LED's interior, whose
-value changes from row to row but not along a row. For pixels in such runs
-this sampler inverts the Poisson CDF of the run's mean at a uniform deviate
-through a table over 1024 equal bins of the deviate: a 16-bit random integer
-picks the bin, which fixes the result unless a step of the CDF lies inside
-the bin; then a fresh double-precision uniform places the deviate within the
-bin and a binary search finds the exact step. The CDF is summed from the log pmf over
-the mean ± (12√λ + 12), outside which the probability is below 1e-30. Pixels
-in short runs (the LED's anti-aliased edge), and means above
-:data:`MAX_TABLE_MEAN`, go to numpy's Poisson sampler. The law is Poisson in
-every case; only the speed differs.
+A Poisson variable splits exactly into independent parts:
+Poisson(λ) = Poisson(g) + Poisson(λ − g) for any 0 ≤ g ≤ λ. Here g is λ with
+all but the top :data:`CLASS_BITS` bits of its float64 mantissa cut off, so
+g takes few values (256 per octave of λ, its *class*) and λ − g is exact and
+below λ/256. Each class has a table, built once per process and kept:
 
-The cost is a few passes over compact (uint16/uint32) arrays instead of
-numpy's ~40 ns per deviate; ``rollsim bench render`` measures both.
+* Poisson(g) is drawn by inverting its CDF at a uniform u = w·2^-32 from one
+  32-bit random word w: the word's top 10 bits pick one of 1024 equal bins of
+  u, and the table gives the count at the bin's start, flagged where a step
+  of the CDF lies inside the bin; only then does a binary search over the
+  class's CDF find the exact step. The CDF is summed from the log pmf over
+  g ± (12√g + 12), outside which the probability is below 1e-30.
+* The remainder λ − g is split again the same way while it is at least 1
+  (for λ below 256 it already is not), and a remainder r < 1 is drawn by
+  sequential inversion with the next word: u < 1 − r ≤ e^-r gives 0 at once
+  (most pixels), else the CDF is summed term by term, e^-r from a fixed
+  Horner polynomial (error below 1e-12, far under the uniforms' 2^-32) so that the compiled kernel and
+  numpy compute the same bits.
+
+The law is Poisson up to the 2^-32 resolution of the uniforms (a Kolmogorov
+distance below 3e-10). Means from :data:`GAUSSIAN_ABOVE_E` (2^20 e⁻, far
+above any full well) take N(λ, λ) instead, whose skewness error 1/√λ is
+below 1e-3 there.
+
+Random words come from a counter-based generator
+(:mod:`rollsim.counter_rng`): pixel i uses the words of counters 2i and
+2i + 1 (four 32-bit halves: one per part it needs), so the result depends
+only on the key and the means, and the compiled kernel
+(:mod:`rollsim.jit`) equals the numpy twin byte for byte.
 """
 
 from __future__ import annotations
 
+import math
+import threading
+
 import numpy as np
 from scipy.special import gammaln
 
-# Runs shorter than this go to numpy: their table rows would cost more than they save.
-MIN_RUN = 16
-# Table entries are uint16 counts, and long tables are slow to build.
-MAX_TABLE_MEAN = 1.0e4
+from rollsim.counter_rng import LOW32, WORD_SCALE, stream_key, words
+from rollsim.gaussian import normal_from_words, normal_tables
+
+CLASS_BITS = 8
 BIN_BITS = 10
 TABLE_BINS = 1 << BIN_BITS
-# Table entries hold k in the low 15 bits (k < 2**15 for means up to 1e4) and
-# the "a CDF step lies inside this bin" flag in bit 15: one lookup gives both.
-_STRADDLE = np.uint16(1 << 15)
-_MAX_CLASSES = 65535  # class ids are uint16; one id is kept for "no table"
+# Classes cover means in [1, 2^MAX_EXPONENT); above, the Gaussian approximation.
+MAX_EXPONENT = 20
+GAUSSIAN_ABOVE_E = float(2**MAX_EXPONENT)
+N_CLASSES = MAX_EXPONENT << CLASS_BITS
+# Table entries: k in the low 31 bits, bit 31 set where a CDF step lies inside the bin.
+STRADDLE = np.uint32(1 << 31)
+K_MASK = np.uint32((1 << 31) - 1)
+MANTISSA_SHIFT = np.uint64(52 - CLASS_BITS)
+CLASS_MASK = np.uint64((1 << CLASS_BITS) - 1)
+_KEEP_CLASS_BITS = ~np.uint64((1 << (52 - CLASS_BITS)) - 1)
+EXPONENT_SHIFT = np.uint64(52)
+EXPONENT_BIAS = 1023
+BIN_SHIFT = np.uint64(32 - BIN_BITS)
+# Sequential inversion of a remainder below 1 stops here (P(k > 40) < 1e-48).
+MAX_SMALL_K = 40
+# (-1)^n / n!, n = 0 … 14, highest first: e^-r for 0 ≤ r < 1 by Horner (truncation below 1/15! = 8e-13).
+EXP_NEG_COEFFICIENTS = np.array([(-1.0) ** n / float(np.prod(np.arange(1, n + 1, dtype=np.float64))) for n in range(14, -1, -1)])
 
 
-def _runs(lam: np.ndarray):
-    """Start, length and value of every run of equal values along rows."""
-    height, width = lam.shape
-    change = np.empty((height, width), dtype=bool)
-    change[:, 0] = True
-    np.not_equal(lam[:, 1:], lam[:, :-1], out=change[:, 1:])
-    starts = np.flatnonzero(change)
-    lengths = np.diff(np.append(starts, lam.size))
-    return starts, lengths, lam.ravel()[starts]
+# ------------------------------------------------------------------ tables
 
 
 def _cdf_segments(means: np.ndarray):
@@ -59,18 +81,23 @@ def _cdf_segments(means: np.ndarray):
     owner = np.repeat(np.arange(means.size), sizes)
     k = (k_lo[owner] + np.arange(offsets[-1]) - offsets[owner]).astype(np.float64)
     lam = means[owner]
-    positive = lam > 0
-    log_pmf = np.where(k == 0, 0.0, -np.inf)  # a zero mean puts all mass on k = 0
-    log_pmf[positive] = k[positive] * np.log(lam[positive]) - lam[positive] - gammaln(k[positive] + 1.0)
+    log_pmf = k * np.log(lam) - lam - gammaln(k + 1.0)  # every class mean is >= 1
     pmf = np.exp(log_pmf)
     running = np.cumsum(pmf)
     first = offsets[:-1]
     cdf = running - np.repeat(running[first] - pmf[first], sizes)
+    cdf[offsets[1:] - 1] = 1.0  # the last entry absorbs the far tail
     return k_lo, offsets, owner, cdf
 
 
-def _tables(means: np.ndarray):
-    """Lookup table over (class, bin): k at the bin's start, flagged where a CDF step lies inside."""
+def class_mean(ids: np.ndarray) -> np.ndarray:
+    """The mean g of each class id: 2^e · (1 + m / 2^CLASS_BITS)."""
+    exponent, mantissa = np.divmod(np.asarray(ids, dtype=np.int64), 1 << CLASS_BITS)
+    return np.ldexp(1.0 + mantissa / float(1 << CLASS_BITS), exponent.astype(np.int32))
+
+
+def _guide_tables(means: np.ndarray):
+    """Per class: 1024 entries (k at the bin's start, flagged where a CDF step lies inside), and the CDFs."""
     k_lo, offsets, owner, cdf = _cdf_segments(means)
     n = means.size
     # hist[c, b]: CDF entries of class c in bin b (bin B holds those at 1).
@@ -78,64 +105,194 @@ def _tables(means: np.ndarray):
     hist = np.bincount(owner * (TABLE_BINS + 1) + bins, minlength=n * (TABLE_BINS + 1)).reshape(n, TABLE_BINS + 1)
     below = np.cumsum(hist[:, :TABLE_BINS], axis=1) - hist[:, :TABLE_BINS]
     last = (offsets[1:] - offsets[:-1] - 1)[:, None]
-    table = (k_lo[:, None] + np.minimum(below, last)).astype(np.uint16)
-    table[hist[:, :TABLE_BINS] > 0] |= _STRADDLE
-    # The last row is for pixels left to numpy.
-    table = np.vstack([table, np.zeros((1, TABLE_BINS), np.uint16)])
-    return table, k_lo, offsets, cdf
+    guide = (k_lo[:, None] + np.minimum(below, last)).astype(np.uint32)
+    guide[hist[:, :TABLE_BINS] > 0] |= STRADDLE
+    return guide, k_lo, offsets, cdf
 
 
-def _refine(classes, u, k_lo, offsets, cdf) -> np.ndarray:
-    """Exact inverse CDF by binary search: k_lo + #{CDF entries ≤ u}."""
-    lo = np.zeros(classes.size, dtype=np.int64)
-    hi = offsets[classes + 1] - offsets[classes] - 1  # the last entry absorbs the far tail
-    base = offsets[classes]
-    while True:
-        active = lo < hi
-        if not active.any():
+class PoissonTables:
+    """The tables of the classes met so far, in flat arrays a kernel can read.
+
+    Attributes
+    ----------
+    guide : ndarray of uint32, shape (n_built · 1024,)
+    cdf : ndarray of float64
+        Every built class's CDF, concatenated.
+    slot : ndarray of int64, shape (N_CLASSES,)
+        Row of a class in ``guide``, or −1 before it is built.
+    cdf_start, cdf_size, k_lo : ndarray of int64, shape (N_CLASSES,)
+    """
+
+    def __init__(self) -> None:
+        self.guide = np.zeros(0, dtype=np.uint32)
+        self.cdf = np.zeros(0, dtype=np.float64)
+        self.slot = np.full(N_CLASSES, -1, dtype=np.int64)
+        self.cdf_start = np.zeros(N_CLASSES, dtype=np.int64)
+        self.cdf_size = np.zeros(N_CLASSES, dtype=np.int64)
+        self.k_lo = np.zeros(N_CLASSES, dtype=np.int64)
+        self._lock = threading.Lock()
+
+    def missing(self, ids: np.ndarray) -> np.ndarray:
+        """The class ids among ``ids`` not built yet (sorted, unique)."""
+        ids = np.unique(ids)
+        return ids[self.slot[ids] < 0]
+
+    def build(self, ids: np.ndarray) -> None:
+        """Build the tables of class ids ``ids`` (those already built are skipped)."""
+        with self._lock:
+            ids = self.missing(np.asarray(ids, dtype=np.int64))
+            if ids.size == 0:
+                return
+            guide, k_lo, offsets, cdf = _guide_tables(class_mean(ids))
+            first_slot = self.guide.size // TABLE_BINS
+            self.cdf_start[ids] = self.cdf.size + offsets[:-1]
+            self.cdf_size[ids] = np.diff(offsets)
+            self.k_lo[ids] = k_lo
+            self.guide = np.concatenate([self.guide, guide.ravel()])
+            self.cdf = np.concatenate([self.cdf, cdf])
+            self.slot[ids] = first_slot + np.arange(ids.size)
+
+    def arrays(self) -> tuple:
+        """What a kernel reads, in its argument order."""
+        return self.guide, self.cdf, self.slot, self.cdf_start, self.cdf_size, self.k_lo
+
+
+# The mean of every class id, for kernels (exactly the masked means of split_class).
+CLASS_MEANS = class_mean(np.arange(N_CLASSES))
+
+# One store per process: a class's table depends on nothing but the class.
+TABLES = PoissonTables()
+
+
+# ------------------------------------------------------- numpy (whole arrays)
+
+
+def split_class(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Class id and class mean g ≤ λ of means in [1, 2^MAX_EXPONENT) (float64)."""
+    bits = lam.view(np.uint64)
+    exponent = (bits >> EXPONENT_SHIFT).astype(np.int64) - EXPONENT_BIAS
+    ids = (exponent << CLASS_BITS) | ((bits >> MANTISSA_SHIFT) & CLASS_MASK).astype(np.int64)
+    return ids, (bits & _KEEP_CLASS_BITS).view(np.float64)
+
+
+def exp_neg(r: np.ndarray) -> np.ndarray:
+    """e^-r for 0 ≤ r < 1 by a fixed Horner polynomial (the kernel's arithmetic)."""
+    out = np.full(r.shape, EXP_NEG_COEFFICIENTS[0])
+    for c in EXP_NEG_COEFFICIENTS[1:]:
+        out *= r
+        out += c
+    return out
+
+
+def _half(word_lo: np.ndarray, word_hi: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """32-bit word number ``part`` (0 … 3) of each pixel: halves of its two 64-bit words."""
+    out = np.where(part % 2 == 0, word_lo >> np.uint64(32), word_lo & LOW32)
+    return np.where(part >= 2, np.where(part % 2 == 0, word_hi >> np.uint64(32), word_hi & LOW32), out)
+
+
+def _table_counts(tables: PoissonTables, ids: np.ndarray, word: np.ndarray) -> np.ndarray:
+    """Poisson(class mean) by the guide table and, in straddled bins, binary search."""
+    entry = tables.guide[tables.slot[ids] * TABLE_BINS + (word >> BIN_SHIFT).astype(np.int64)]
+    k = (entry & K_MASK).astype(np.int64)
+    refine = np.flatnonzero(entry & STRADDLE)
+    if refine.size:
+        cls = ids[refine]
+        u = word[refine].astype(np.float64) * WORD_SCALE
+        base = tables.cdf_start[cls]
+        lo = k[refine] - tables.k_lo[cls]
+        hi = tables.cdf_size[cls] - 1
+        while True:
+            active = lo < hi
+            if not active.any():
+                break
+            mid = (lo + hi) // 2
+            right = active & (tables.cdf[base + mid] <= u)
+            lo = np.where(right, mid + 1, lo)
+            hi = np.where(active & ~right, mid, hi)
+        k[refine] = tables.k_lo[cls] + lo
+    return k
+
+
+def _small_counts(r: np.ndarray, word: np.ndarray) -> np.ndarray:
+    """Poisson(r) for 0 ≤ r < 1 by sequential inversion at u = w·2^-32."""
+    u = word.astype(np.float64) * WORD_SCALE
+    k = np.zeros(r.size, dtype=np.int64)
+    todo = np.flatnonzero(u >= 1.0 - r)
+    if todo.size == 0:
+        return k
+    r_t, u_t = r[todo], u[todo]
+    p = exp_neg(r_t)
+    cdf = p.copy()
+    k_t = np.zeros(todo.size, dtype=np.int64)
+    for step in range(1, MAX_SMALL_K + 1):
+        going = u_t >= cdf
+        if not going.any():
             break
-        mid = (lo + hi) // 2
-        right = active & (cdf[base + mid] <= u)
-        lo = np.where(right, mid + 1, lo)
-        hi = np.where(active & ~right, mid, hi)
-    return k_lo[classes] + lo
+        k_t += going
+        p = p * r_t / float(step)
+        cdf = np.where(going, cdf + p, cdf)
+        p = np.where(going, p, 0.0)
+    k[todo] = k_t
+    return k
+
+
+def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
+    """Poisson deviates of the flat float64 means ``lam`` from counter stream ``key`` (float32), in numpy."""
+    n = lam.size
+    first = words(key, np.arange(n, dtype=np.uint64) * np.uint64(2))
+    out = np.zeros(n, dtype=np.float64)
+    rest = lam.astype(np.float64, copy=True)
+    big = np.flatnonzero(rest >= GAUSSIAN_ABOVE_E)
+    rest[big] = 0.0
+    # The first table step, for every mean of 1 or more: word 0 of each pixel.
+    tabled = np.flatnonzero(rest >= 1.0)
+    ids, g = split_class(rest[tabled])
+    TABLES.build(TABLES.missing(ids))
+    out[tabled] = _table_counts(TABLES, ids, first[tabled] >> np.uint64(32))
+    rest[tabled] -= g
+    part = np.zeros(n, dtype=np.int8)
+    part[tabled] = 1
+    # Further steps, for means of 256 or more only (words 1 to 3).
+    active = tabled[rest[tabled] >= 1.0]
+    if active.size:
+        second = np.zeros(n, dtype=np.uint64)
+        second[active] = words(key, active.astype(np.uint64) * np.uint64(2) + np.uint64(1))
+        while active.size:
+            ids, g = split_class(rest[active])
+            TABLES.build(TABLES.missing(ids))
+            out[active] += _table_counts(TABLES, ids, _half(first[active], second[active], part[active]))
+            rest[active] -= g
+            part[active] += 1
+            active = active[rest[active] >= 1.0]
+    small = np.flatnonzero(rest > 0.0)
+    if small.size:
+        word = np.where(part[small] == 0, first[small] >> np.uint64(32), first[small] & LOW32)
+        later = np.flatnonzero(part[small] >= 2)
+        if later.size:
+            word[later] = _half(first[small[later]], second[small[later]], part[small[later]])
+        out[small] += _small_counts(rest[small], word)
+    if big.size:
+        lam_big = lam[big].astype(np.float64)
+        z = normal_from_words(first[big] >> np.uint64(32), *normal_tables()).astype(np.float64)
+        out[big] = np.maximum(0.0, lam_big + np.sqrt(lam_big) * z)
+    return out.astype(np.float32)
+
+
+def class_of_remainder(rest: float) -> int:
+    """Class id of one mean in [1, 2^MAX_EXPONENT), by frexp (exact; the kernel's way for remainders)."""
+    fraction, exponent = math.frexp(rest)  # rest = fraction · 2^exponent, fraction in [1/2, 1)
+    return (exponent - 1) * (1 << CLASS_BITS) + int((fraction * 2.0 - 1.0) * (1 << CLASS_BITS))
 
 
 def poisson(rng: np.random.Generator, lam: np.ndarray) -> np.ndarray:
     """Poisson deviates with means ``lam``, as float32 of the same shape.
 
-    float32 holds every count up to 2**24 exactly. Exact; fast for long runs of equal means along the rows of a 2-D array
-    (see the module docstring). The result depends only on ``rng``'s state
-    and ``lam``.
+    float32 holds every count up to 2**24 exactly. One key is drawn from
+    ``rng`` (:func:`rollsim.counter_rng.stream_key`); the result depends only
+    on ``rng``'s state and ``lam`` (see the module docstring). Compiled where
+    numba is used (:mod:`rollsim.sensor.chain`), numpy otherwise, with
+    identical results.
     """
-    lam = np.asarray(lam, dtype=np.float64)
-    if lam.ndim != 2 or lam.size == 0:
-        return rng.poisson(lam).astype(np.float32)
-    starts, lengths, values = _runs(lam)
-    tabled = (lengths >= MIN_RUN) & (values <= MAX_TABLE_MEAN)
-    means, inverse = np.unique(values[tabled], return_inverse=True)
-    if means.size == 0 or means.size > _MAX_CLASSES:
-        return rng.poisson(lam).astype(np.float32)
-    no_table = means.size  # the class id of pixels left to numpy
-    run_class = np.full(starts.size, no_table, dtype=np.uint16)
-    run_class[tabled] = inverse
-    class_map = np.repeat(run_class, lengths)
-    table, k_lo, offsets, cdf = _tables(means)
+    from rollsim.sensor.chain import shot_poisson  # the compiled chain builds on this module
 
-    bins = rng.integers(0, 1 << 16, size=lam.size, dtype=np.uint16)
-    bins >>= np.uint16(16 - BIN_BITS)
-    index = class_map.astype(np.uint32)
-    index <<= BIN_BITS
-    index |= bins
-    entry = table.ravel()[index]
-    refine = np.flatnonzero(entry >= _STRADDLE)
-    entry &= np.uint16(_STRADDLE - 1)
-    out = entry.astype(np.float32)
-    if refine.size:
-        # The uniform deviate, uniform within its bin: (bin + V) / B.
-        u = (bins[refine] + rng.random(refine.size)) / TABLE_BINS
-        out[refine] = _refine(class_map[refine].astype(np.int64), u, k_lo, offsets, cdf)
-    rest = np.flatnonzero(class_map == no_table)
-    if rest.size:
-        out[rest] = rng.poisson(lam.ravel()[rest])
-    return out.reshape(lam.shape)
+    return shot_poisson(stream_key(rng), lam)

@@ -1,0 +1,114 @@
+"""The sensor chain in one pass: the same bytes as its stages one by one, compiled or in numpy."""
+
+import hashlib
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from rollsim.render import RenderPipeline
+from rollsim.scene import load_scene
+from rollsim.sensor.chain import Adc, ChainKeys, _chain_numpy, run_chain
+from rollsim.sensor.adc import gray8_lut
+
+SMALL = ["camera.width_px=320", "camera.height_px=240"]
+
+# Scenes whose noise chain fuses whole, in part (an offset between the clip and
+# the read noise, blooming between the shot noise and the clip), or not at all.
+SCENES = [
+    ("paper-geometric", []),
+    ("paper-default", []),
+    ("paper-geometric", ["effects.shot_noise.method=gaussian"]),
+    ("paper-geometric", ["camera.output=raw16"]),
+    ("effect-vignetting", []),
+    ("effect-row_noise", []),
+    ("effect-blooming", []),
+    ("effect-bayer", []),
+    ("effect-isp", []),
+    ("stress-high-iso", []),
+    ("stress-saturation", []),
+    ("paper-geometric", ["effects=[read_noise]"]),
+    ("paper-geometric", ["effects.read_noise.method=exact"]),
+]
+
+
+@pytest.mark.parametrize("name, overrides", SCENES, ids=lambda v: v if isinstance(v, str) else ",".join(v) or "-")
+def test_fused_chain_renders_the_bytes_of_its_stages(name, overrides):
+    scene = load_scene(name, SMALL + overrides)
+    fused, staged = RenderPipeline(scene), RenderPipeline(scene, fuse=False)
+    assert fused.stage_names == staged.stage_names
+    for index in (0, 3):
+        a, b = fused.render(index), staged.render(index)
+        assert a.image.dtype == b.image.dtype and np.array_equal(a.image, b.image)
+        assert a.truth == b.truth
+
+
+def test_the_default_chain_is_one_stage():
+    pipeline = RenderPipeline(load_scene("paper-geometric", SMALL))
+    names = [stage.name for stage in pipeline.stages]
+    assert "shot_noise[poisson]+full_well+read_noise[table]+adc+gray8" in names
+    assert "shot_noise[poisson]" in pipeline.stage_names and len(names) < len(pipeline.stage_names)
+
+
+def test_an_offset_between_clip_and_read_noise_splits_the_chain():
+    pipeline = RenderPipeline(load_scene("paper-geometric", SMALL + ["effects.dsnu={}"]))
+    names = [stage.name for stage in pipeline.stages]
+    assert "shot_noise[poisson]+full_well" in names and "read_noise[table]+adc+gray8" in names
+
+
+def _frame_digest(extra_env: dict) -> str:
+    code = (
+        "import hashlib; from rollsim.render import RenderPipeline; from rollsim.scene import load_scene;"
+        f"p = RenderPipeline(load_scene('paper-default', {SMALL!r}));"
+        "print(hashlib.sha256(b''.join(p.render(i).image.tobytes() for i in range(3))).hexdigest())"
+    )
+    env = {**os.environ, **extra_env}
+    return subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout.strip()
+
+
+def test_numpy_twin_renders_the_bytes_of_the_compiled_kernel():
+    """ROLLSIM_JIT=0 (no numba) renders byte-identical frames."""
+    pipeline = RenderPipeline(load_scene("paper-default", SMALL))
+    here = hashlib.sha256(b"".join(pipeline.render(i).image.tobytes() for i in range(3))).hexdigest()
+    assert _frame_digest({"ROLLSIM_JIT": "0"}) == here
+
+
+@pytest.mark.parametrize("shot", ["poisson", "gaussian", None])
+def test_every_part_of_the_chain_equals_the_numpy_twin(shot):
+    rng = np.random.default_rng(2)
+    lam = np.concatenate([np.full(2000, 10.27), rng.uniform(0, 60, 2000), rng.uniform(300, 6e4, 200), [0.0, 0.2]])
+    keys = ChainKeys(np.uint64(5), np.uint64(6))
+    adc, lut = Adc(22.0, 64, 10), gray8_lut(64, 10)
+    for kwargs in ({}, {"full_well_e": 4500.0}, {"full_well_e": 44.0, "read_sigma_e": 2.0},
+                   {"read_sigma_e": 2.0, "adc": adc}, {"full_well_e": 4500.0, "read_sigma_e": 2.0, "adc": adc, "lut": lut}):
+        numpy_twin = _chain_numpy(lam, shot, keys, kwargs.get("full_well_e"), kwargs.get("read_sigma_e"),
+                                  kwargs.get("adc"), kwargs.get("lut"))
+        assert np.array_equal(run_chain(lam, shot, keys, **kwargs), numpy_twin), kwargs
+
+
+def test_photon_transfer_slope_is_the_gain():
+    """Flat fields through the whole chain: variance against mean has slope K (EMVA 1288)."""
+    gain = 0.5
+    adc = Adc(gain, 64, 12)
+    means, variances = [], []
+    for level in (50.0, 200.0, 800.0, 2000.0):
+        dn = run_chain(np.full((400, 400), level), "poisson", ChainKeys(np.uint64(level), np.uint64(9)),
+                       full_well_e=1e5, read_sigma_e=3.0, adc=adc).astype(np.float64)
+        means.append(dn.mean())
+        variances.append(dn.var())
+    slope = np.polyfit(means, variances, 1)[0]
+    assert slope == pytest.approx(gain, rel=0.03)
+
+
+def test_bad_arguments_name_what_is_wrong():
+    lam = np.ones((2, 2))
+    with pytest.raises(ValueError, match="shot must be"):
+        run_chain(lam, "uniform", ChainKeys(np.uint64(1)))
+    with pytest.raises(ValueError, match="needs its key"):
+        run_chain(lam, "poisson", ChainKeys())
+    with pytest.raises(ValueError, match="output table needs the ADC"):
+        run_chain(lam, "poisson", ChainKeys(np.uint64(1)), lut=np.zeros(1024, np.uint8))
+    with pytest.raises(ValueError, match="read noise"):
+        run_chain(lam, "poisson", ChainKeys(np.uint64(1)), read_sigma_e=1.0)
