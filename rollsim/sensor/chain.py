@@ -146,12 +146,15 @@ def _chain_numpy(lam, shot, keys, full_well_e, read_sigma_e, adc, lut):
 
 
 @kernel()
-def _chain_kernel(lam, start, shot_code, shot_key, full_well, read_sigma, read_key, gain, offset, dn_top,
-                  lut, out_e, out_dn, out_lut, output_code,
-                  guide, cdf, slot, cdf_start, cdf_size, k_lo, class_means, exp_coefficients,
-                  z_body, z_low, z_high):
+def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, adc, lut, out,
+                  cdf, slot, cdf_start, cdf_size, k_lo, class_means, exp_coefficients, z_body, z_low, z_high):
     # One flat body: numba passes array arguments to a called function with
-    # reference counting, which cost several times the work itself.
+    # reference counting, which cost several times the work itself. A step
+    # the chain does not take is passed as None (no shot noise, Gaussian shot
+    # noise without the Poisson tables in ``guide``, no clip, no read noise, no
+    # ADC, raw DN without ``lut``): numba compiles one version per pattern of
+    # Nones with the dead steps pruned, not one loop that tests every flag at
+    # every pixel.
     bits_of = lam.view(np.uint64)
     last_mean = -1.0
     last_ident = np.int64(0)
@@ -160,11 +163,11 @@ def _chain_kernel(lam, start, shot_code, shot_key, full_well, read_sigma, read_k
     for i in range(start, lam.size):
         mean = lam[i]
         # -------------------------------------------------- shot noise
-        if shot_code != 0 and not (mean >= 0.0 and mean < np.inf):
+        if shot_key is not None and not (mean >= 0.0 and mean < np.inf):
             return -1 - i  # NaN, inf or negative: refused by the caller
-        if shot_code == 0:
+        if shot_key is None:
             electrons = np.float32(mean)
-        elif shot_code == 1 and mean < GAUSSIAN_ABOVE_E:
+        elif guide is not None and mean < GAUSSIAN_ABOVE_E:
             # Pixel i's 32-bit words: the halves of the words of counters 2i and 2i + 1.
             z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + shot_key
             z = (z ^ (z >> np.uint64(30))) * _MIX1
@@ -264,16 +267,16 @@ def _chain_kernel(lam, start, shot_code, shot_key, full_well, read_sigma, read_k
                 normal = z_high[word & np.uint64(0xFFFF)]
             else:
                 normal = z_body[top]
-            if shot_code == 1:
+            if guide is not None:
                 electrons = np.float32(max(0.0, mean + np.sqrt(mean) * np.float64(normal)))
             else:
                 mean32 = np.float32(mean)
                 electrons = normal * np.sqrt(mean32) + mean32
         # -------------------------------------------------- full well
-        if full_well >= 0.0:
-            electrons = min(max(electrons, np.float32(0.0)), np.float32(full_well))
+        if full_well is not None:
+            electrons = min(max(electrons, np.float32(0.0)), full_well)
         # -------------------------------------------------- read noise
-        if read_sigma >= 0.0:
+        if read_sigma is not None:
             z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + read_key
             z = (z ^ (z >> np.uint64(30))) * _MIX1
             z = (z ^ (z >> np.uint64(27))) * _MIX2
@@ -285,46 +288,48 @@ def _chain_kernel(lam, start, shot_code, shot_key, full_well, read_sigma, read_k
                 normal = z_high[word & np.uint64(0xFFFF)]
             else:
                 normal = z_body[top]
-            electrons = normal * np.float32(read_sigma) + electrons
+            electrons = normal * read_sigma + electrons
         # -------------------------------------------------- ADC and output
-        if output_code == 0:
-            out_e[i] = electrons
+        if adc is None:
+            out[i] = electrons
         else:
-            level = electrons * gain + offset
-            level = min(max(level, np.float32(0.0)), dn_top)
-            dn = np.uint16(level)
-            if output_code == 1:
-                out_dn[i] = dn
+            level = electrons * adc[0] + adc[1]
+            level = min(max(level, np.float32(0.0)), adc[2])
+            if lut is None:
+                out[i] = np.uint16(level)
             else:
-                out_lut[i] = lut[dn]
+                out[i] = lut[np.uint16(level)]
     return lam.size
 
 
 def _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, lut):
     n = lam.size
-    output_code = 0 if adc is None else (1 if lut is None else 2)
-    out_e = np.empty(n if output_code == 0 else 0, dtype=np.float32)
-    out_dn = np.empty(n if output_code == 1 else 0, dtype=np.uint16)
-    out_lut = np.empty(n if output_code == 2 else 0, dtype=np.uint8 if lut is None else lut.dtype)
     if adc is None:
-        gain = offset = dn_top = np.float32(0.0)
+        out = np.empty(n, dtype=np.float32)
+        adc_constants = None
     else:
+        out = np.empty(n, dtype=np.uint16 if lut is None else lut.dtype)
         # electrons_to_dn's float32 constants, exactly.
-        gain, offset = np.float32(adc.gain_dn_per_e), np.float32(adc.black_level_dn + 0.5)
-        dn_top = np.float32(2**adc.bits - 0.5)
-    lut_arg = np.zeros(1, dtype=np.uint8) if lut is None else np.ascontiguousarray(lut)
-    fixed = (_SHOT_CODE[shot], np.uint64(keys.shot or 0), -1.0 if full_well_e is None else float(full_well_e),
-             -1.0 if read_sigma_e is None else float(read_sigma_e), np.uint64(keys.read or 0), gain, offset, dn_top,
-             lut_arg, out_e, out_dn, out_lut, output_code)
+        adc_constants = (np.float32(adc.gain_dn_per_e), np.float32(adc.black_level_dn + 0.5), np.float32(2**adc.bits - 0.5))
     start = 0
     while start < n:
-        stop = int(compiled(lam, start, *fixed, *TABLES.arrays(), CLASS_MEANS, EXP_NEG_COEFFICIENTS, *normal_tables()))
+        guide, *tables = TABLES.arrays()
+        stop = int(compiled(
+            lam, start,
+            None if shot is None else np.uint64(keys.shot),
+            guide if shot == "poisson" else None,
+            None if full_well_e is None else np.float32(full_well_e),
+            None if read_sigma_e is None else np.float32(read_sigma_e),
+            np.uint64(keys.read or 0),
+            adc_constants,
+            None if lut is None else np.ascontiguousarray(lut),
+            out, *tables, CLASS_MEANS, EXP_NEG_COEFFICIENTS, *normal_tables()))
         if stop < 0:
             raise ValueError(_BAD_MEANS)
         if stop < n:
             build_classes_from(lam, stop)
         start = stop
-    return (out_e, out_dn, out_lut)[output_code]
+    return out
 
 
 @kernel()
