@@ -794,11 +794,32 @@ def _add_bench_commands(sub) -> None:
         p.set_defaults(func=cmd_bench, bench_main=_bench_main(name))
         return p
 
-    p = add("render", "render ms/frame at 1080p, end-to-end frames/s, peak memory")
-    p.add_argument("--frames", type=_positive_int, default=20, help="frames timed per variant (default 20)")
-    p.add_argument("--e2e-frames", type=_positive_int, default=120, help="frames of the end-to-end run (default 120)")
-    p.add_argument("--rss-frames", type=_positive_int, nargs=2, default=[200, 2000], help="two frame counts for peak memory")
-    p.add_argument("--workers", type=_positive_int, default=2, help="workers of the end-to-end runs (default 2)")
+    p = add("render", "render speed at 1080p against its targets: stage profile, PNG floor and end-to-end frames/s, "
+            "each effect's cost, in-memory render + decode, start-up, peak memory")
+    p.add_argument("--scene", default="paper-geometric", help="scene file or bundled scene name (default paper-geometric)")
+    _add_set_option(p)
+    p.add_argument("--quick", action="store_true",
+                   help="a rough check in a few minutes: 5 frames per figure, 3 per effect, one in-memory run of "
+                   "10, one end-to-end run of 40, memory at 50 and 250 frames, one start-up run (options given "
+                   "still count)")
+    p.add_argument("--frames", type=_positive_int, default=None,
+                   help="frames timed for the stage profile, each render variant and the PNG encoding (default 20)")
+    p.add_argument("--effect-frames", type=_positive_int, default=None,
+                   help="frames with and without each effect (default 6)")
+    p.add_argument("--effects", nargs="*", metavar="EFFECT", default=None,
+                   help="effects whose cost to measure (default all; the option alone: none)")
+    p.add_argument("--decode-frames", type=_positive_int, default=None,
+                   help="frames rendered and decoded in memory, on one core and per worker (default 30)")
+    p.add_argument("--decode-repeats", type=_positive_int, default=None,
+                   help="runs of the workers rendering and decoding in memory (default 3)")
+    p.add_argument("--e2e-frames", type=_positive_int, default=None, help="frames of each end-to-end run (default 120)")
+    p.add_argument("--e2e-repeats", type=_positive_int, default=None, help="end-to-end runs (default 3)")
+    p.add_argument("--rss-frames", type=_positive_int, nargs=2, default=None, metavar=("FEW", "MANY"),
+                   help="frame counts of the two peak-memory runs (default 200 2000)")
+    p.add_argument("--startup-runs", type=_positive_int, default=None, help="runs of each start-up command (default 3)")
+    p.add_argument("--workers", type=_positive_int, default=2,
+                   help="workers of the end-to-end, in-memory and memory runs (default 2)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
     _add_json_file(p)
     _add_force(p)
 

@@ -27,7 +27,9 @@ same frames and seed:
   of each setting's outcomes with its change against the reference.
 
 And each effect's own cost: ms per frame with the effect (the scene's
-parameters, or the defaults) minus without it, the two rendered in turn.
+parameters, or the defaults) minus without it, the two rendered in turn
+(:func:`rollsim.bench.effect_cost.effect_cost`, which ``rollsim bench
+render`` shares).
 """
 
 from __future__ import annotations
@@ -45,14 +47,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rollsim.text_tables import format_table, markdown_table
-from rollsim.bench.common import machine
+from rollsim.bench.common import machine, strict_floats
+from rollsim.bench.effect_cost import effect_cost, timed_pipeline
 from rollsim.bench.image_error import IMAGE_FIELDS, ImageError, data_range_of
 from rollsim.stream import DecodedRun, fitted_mmbp
 from rollsim.bench.variants import (
     KNOBS,
     Knob,
     KnobScenes,
-    effect_pair,
     flat_field_levels_e,
     flat_field_overrides,
     knob_scenes,
@@ -67,18 +69,6 @@ SSIM_FRAMES = 4  # frames whose SSIM is computed, spread over the run
 FLAT_FIELD_FRAMES = 1  # frames per flat field (a 1080p frame holds 2 M samples)
 MAX_AMBIENT_LUX = 1e7  # the scene key's limit
 OUTPUT_FILES = ("accuracy.csv", "effects_cost.csv", "accuracy.json", "accuracy.md", "accuracy_pareto.png")
-
-
-def _timed_pipeline(scene: Scene):
-    """A render pipeline and its setup time in ms (best of two: the first also fills caches)."""
-    from rollsim.render import RenderPipeline
-
-    seconds = []
-    for _ in range(2):
-        start = time.perf_counter()
-        pipeline = RenderPipeline(scene)
-        seconds.append(time.perf_counter() - start)
-    return pipeline, 1e3 * min(seconds)
 
 
 def ssim_frame_indices(n_frames: int, count: int = SSIM_FRAMES) -> list[int]:
@@ -174,7 +164,7 @@ def decoded_runs(knob: Knob, scenes: KnobScenes, n_frames: int, warmup: int = 1)
     """
     runs = {}
     for setting in knob.settings:
-        pipeline, setup_ms = _timed_pipeline(scenes.scene(setting))
+        pipeline, setup_ms = timed_pipeline(scenes.scene(setting))
         runs[setting.label] = (DecodedRun(pipeline), setup_ms)
     for index in range(warmup):
         for run, _ in runs.values():
@@ -187,7 +177,7 @@ def decoded_runs(knob: Knob, scenes: KnobScenes, n_frames: int, warmup: int = 1)
 
 def _stage_array(array: np.ndarray | None, name: str) -> np.ndarray:
     """A frame state's array that the render's stages always fill."""
-    if array is None:
+    if array is None or array.size == 0:
         raise RuntimeError(f"the render left the frame's {name} empty")
     return array
 
@@ -195,7 +185,7 @@ def _stage_array(array: np.ndarray | None, name: str) -> np.ndarray:
 def _flat_field_dn(scene: Scene, n_frames: int) -> np.ndarray:
     from rollsim.render import RenderPipeline
 
-    pipeline = RenderPipeline(scene)
+    pipeline = RenderPipeline(scene, fuse=False)  # each stage fills its own field: the DN too
     return np.concatenate([_stage_array(pipeline.run_stages(index).dn, "dn").ravel() for index in range(n_frames)])
 
 
@@ -322,44 +312,6 @@ def measure_knob(scene: Scene, knob: Knob, n_frames: int) -> dict:
     }
 
 
-def _median_ms_in_turn(pipelines: list, n_frames: int, warmup: int = 1) -> list[float]:
-    """Median ms per frame of each pipeline, rendered in turn frame by frame."""
-    for index in range(warmup):
-        for pipeline in pipelines:
-            pipeline.render(index)
-    seconds: list[list[float]] = [[] for _ in pipelines]
-    for index in range(n_frames):
-        for pipeline, times in zip(pipelines, seconds):
-            start = time.perf_counter()
-            pipeline.render(index)
-            times.append(time.perf_counter() - start)
-    return [1e3 * float(np.median(times)) for times in seconds]
-
-
-def effect_cost(scene: Scene, name: str, n_frames: int) -> dict:
-    """ms per frame (and setup ms) that effect ``name`` adds to ``scene``."""
-    row = {"effect": name, "listed": name in scene.effects.enabled(), "parameters": None, "ms_with": None,
-           "ms_without": None, "ms_added": None, "setup_ms_added": None, "note": ""}
-    try:
-        pair = effect_pair(scene, name)
-        with_pipeline, with_setup = _timed_pipeline(pair.with_effect)
-        without_pipeline, without_setup = _timed_pipeline(pair.without_effect)
-    except RollsimError as exc:
-        row["note"] = f"not measured: {exc}"
-        return row
-    ms_with, ms_without = _median_ms_in_turn([with_pipeline, without_pipeline], n_frames)
-    params = getattr(pair.with_effect.effects, name).model_dump(mode="json")
-    row.update(
-        parameters=params,
-        ms_with=ms_with,
-        ms_without=ms_without,
-        ms_added=ms_with - ms_without,
-        setup_ms_added=with_setup - without_setup,
-        note=pair.note,
-    )
-    return row
-
-
 def bench_accuracy(scene: Scene, n_frames: int = 30, knobs=KNOBS, effects=None, progress=None) -> dict:
     """Run the accuracy benchmark on a scene; a JSON-ready dict (no NaN or inf).
 
@@ -403,20 +355,9 @@ def bench_accuracy(scene: Scene, n_frames: int = 30, knobs=KNOBS, effects=None, 
         "machine": machine(),
         "opencv_threads": 1,
         "seconds": time.perf_counter() - start,
-        "knobs": [_strict(k) for k in measured],
-        "effects_cost": [_strict(c) for c in costs],
+        "knobs": [strict_floats(k) for k in measured],
+        "effects_cost": [strict_floats(c) for c in costs],
     }
-
-
-def _strict(value):
-    """``value`` with every non-finite float made None (JSON and CSV stay strict)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _strict(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_strict(v) for v in value]
-    return value
 
 
 # ------------------------------------------------------------------ output

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import math
 import platform
 import time
 from typing import Callable
@@ -26,3 +28,27 @@ def machine() -> dict:
     import os
 
     return {"python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine()}
+
+
+def strict_floats(value):
+    """``value`` with every non-finite float made None (JSON and CSV stay strict)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: strict_floats(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [strict_floats(v) for v in value]
+    return value
+
+
+@contextlib.contextmanager
+def one_opencv_thread():
+    """OpenCV on one thread inside the block (one-core figures), as it was after."""
+    import cv2
+
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(threads)

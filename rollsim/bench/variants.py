@@ -177,8 +177,9 @@ def flat_field_overrides(ambient_lux: float, reflectance: float) -> list[str]:
         "effects.ambient=null",
         "effects.flicker=false",
         "effects.motion=false",
-        f"environment.ambient_lux={ambient_lux!r}",
-        f"environment.background_reflectance={reflectance!r}",
+        # float(): a numpy scalar's repr (np.float32(...)) is no scene value.
+        f"environment.ambient_lux={float(ambient_lux)!r}",
+        f"environment.background_reflectance={float(reflectance)!r}",
     ]
 
 
@@ -213,8 +214,19 @@ class EffectPair:
     note: str
 
 
-def effect_pair(scene: Scene, name: str) -> EffectPair:
-    """``scene`` with and without effect ``name`` (at the scene's or default parameters).
+def effect_pair(scene: Scene, name: str, params: dict | None = None) -> EffectPair:
+    """``scene`` with and without effect ``name``.
+
+    Parameters
+    ----------
+    scene : Scene
+    name : str
+        A registered effect.
+    params : dict, optional
+        The effect's parameters when ``scene`` does not list it (default:
+        the effect's defaults; for ``defocus``, a focus distance
+        :data:`DEFOCUS_FOCUS_FACTOR` times the LED's distance). An effect the
+        scene lists keeps the scene's parameters.
 
     Raises
     ------
@@ -234,12 +246,15 @@ def effect_pair(scene: Scene, name: str) -> EffectPair:
             without_data["camera"]["output"] = "gray8"
             notes.append("without it: camera.output gray8")
     else:
-        params = {}
         if name == "tone_curve" and base["camera"]["output"] != "gray8":
             raise RollsimError("applies to camera.output gray8 only")
-        if name == "defocus":
+        if params is not None:
+            params = copy.deepcopy(params)
+        elif name == "defocus":
             params = {"focus_distance_cm": DEFOCUS_FOCUS_FACTOR * scene.link.distance_cm}
             notes.append(f"focus_distance_cm {params['focus_distance_cm']:g}")
+        else:
+            params = {}
         if name == "flicker" and "ambient" not in base["effects"]:
             with_data["effects"]["ambient"] = without_data["effects"]["ambient"] = {}
             notes.append("ambient added to both (flicker needs it)")
