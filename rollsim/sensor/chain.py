@@ -177,40 +177,20 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
             total = 0
             part = 0
             rest = mean
-            # The first table step (every mean of 1 or more) in straight-line
-            # code; the loop below runs for means of 256 or more only.
-            if rest >= 1.0:
-                if mean == last_mean:  # runs of equal means (a uniform background): the class again
+            while rest >= 1.0:  # once for means below 256, up to three times above
+                if part > 0:  # a remainder: its class by frexp (no bit view of a scalar)
+                    fraction, exponent = math.frexp(rest)
+                    ident = np.int64(exponent - 1) * (1 << CLASS_BITS) + np.int64((fraction * 2.0 - 1.0) * (1 << CLASS_BITS))
+                elif mean == last_mean:  # runs of equal means (a uniform background): the class again
                     ident = last_ident
                 else:
                     ident = ((np.int64(bits_of[i] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
                         (bits_of[i] >> MANTISSA_SHIFT) & CLASS_MASK)
-                    if slot[ident] < 0:
-                        return i  # a class without its table: built, then resumed here
+                if slot[ident] < 0:
+                    return i  # a class without its table: built, then resumed here
+                if part == 0:
                     last_mean = mean
                     last_ident = ident
-                entry = guide[slot[ident] * TABLE_BINS + np.int64(word >> BIN_SHIFT)]
-                total = np.int64(entry & K_MASK)
-                if entry & STRADDLE:
-                    u = np.float64(word) * WORD_SCALE
-                    base = cdf_start[ident]
-                    lo = total - k_lo[ident]
-                    hi = cdf_size[ident] - 1
-                    while lo < hi:
-                        mid = (lo + hi) // 2
-                        if cdf[base + mid] <= u:
-                            lo = mid + 1
-                        else:
-                            hi = mid
-                    total = k_lo[ident] + lo
-                rest -= class_means[ident]
-                part = 1
-                word = word64 & LOW32
-            while rest >= 1.0:
-                fraction, exponent = math.frexp(rest)
-                ident = np.int64(exponent - 1) * (1 << CLASS_BITS) + np.int64((fraction * 2.0 - 1.0) * (1 << CLASS_BITS))
-                if slot[ident] < 0:
-                    return i
                 entry = guide[slot[ident] * TABLE_BINS + np.int64(word >> BIN_SHIFT)]
                 k = np.int64(entry & K_MASK)
                 if entry & STRADDLE:

@@ -112,3 +112,33 @@ def test_bad_arguments_name_what_is_wrong():
         run_chain(lam, "poisson", ChainKeys(np.uint64(1)), lut=np.zeros(1024, np.uint8))
     with pytest.raises(ValueError, match="read noise"):
         run_chain(lam, "poisson", ChainKeys(np.uint64(1)), read_sigma_e=1.0)
+
+
+def test_numpy_only_runs_the_twins_inside_the_block_and_nests():
+    from rollsim import jit
+    from rollsim.sensor.chain import _chain_kernel
+
+    if _chain_kernel.compiled is None:
+        pytest.skip("numba is not used here")
+    with jit.numpy_only():
+        assert _chain_kernel.compiled is None
+        with jit.numpy_only(False):  # an inner block cannot switch it back on
+            assert _chain_kernel.compiled is None
+    assert _chain_kernel.compiled is not None
+
+
+def test_short_renders_take_the_numpy_twins():
+    from rollsim.render.writer import SHORT_RENDER_PIXELS, is_short_render
+
+    scene = load_scene("paper-geometric")
+    pixels = scene.camera.width_px * scene.camera.height_px
+    assert is_short_render(scene, 1) and is_short_render(scene, SHORT_RENDER_PIXELS // pixels - 1)
+    assert not is_short_render(scene, SHORT_RENDER_PIXELS // pixels + 1)
+
+
+def test_kernel_cache_dir_is_keyed_by_the_kernel_sources(tmp_path, monkeypatch):
+    from rollsim import jit
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    path = jit.kernel_cache_dir()
+    assert path.parent == tmp_path and path.name == f"rollsim-{jit.sources_hash()}" and path.is_dir()
