@@ -157,11 +157,9 @@ def render_to_dir(
         raise ValueError(f"n_frames must be >= 1, got {n_frames}")
     workers = default_workers() if workers is None else max(1, int(workers))
     check_render_memory(scene, workers)
-    with numpy_only(is_short_render(scene, n_frames)):
-        _init_worker(scene)  # fails on an impossible scene before touching disk
-        warm_up()  # workers fork with the kernels loaded
-        with staged_directory(Path(out_dir), force, inputs) as staging:
-            render_into(scene, staging, n_frames, workers, progress)
+    _init_worker(scene)  # fails on an impossible scene before touching disk; kept for the render
+    with staged_directory(Path(out_dir), force, inputs) as staging:
+        render_into(scene, staging, n_frames, workers, progress)
     return RenderSummary(Path(out_dir), n_frames, workers)
 
 
@@ -185,7 +183,10 @@ def render_into(scene: Scene, directory: Path, n_frames: int, workers: int, prog
     frames_dir = Path(directory) / "frames"
     frames_dir.mkdir()
     (Path(directory) / "scene.resolved.yaml").write_text(scene_to_yaml(scene), encoding="utf-8")
-    with open(Path(directory) / "truth.jsonl", "w", encoding="utf-8") as truth_file:
+    with numpy_only(is_short_render(scene, n_frames)), \
+            open(Path(directory) / "truth.jsonl", "w", encoding="utf-8") as truth_file:
+        _init_worker(scene)
+        warm_up()  # workers fork with the pipeline built and the kernels loaded
         for written, truth in enumerate(_written_frames(scene, n_frames, workers, frames_dir), start=1):
             truth_file.write(json.dumps(truth, separators=(",", ":")) + "\n")
             if progress is not None:
