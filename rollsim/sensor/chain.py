@@ -6,10 +6,10 @@ output table (black clip, tone curve, 8 bits). numpy needs a pass over the
 whole frame for each step of each stage (a hash, a lookup, a multiply, a
 clip, a cast); one compiled loop does them all while the pixel is in a
 register. :func:`run_chain` runs any contiguous part of the chain that starts
-with shot noise:
+with shot noise, or with read noise on electrons already noisy:
 
-* ``shot``: ``"poisson"`` (:mod:`rollsim.sensor.poisson`) or ``"gaussian"``
-  (N(λ, λ), λ + √λ·z in float32);
+* ``shot``: ``"poisson"`` (:mod:`rollsim.sensor.poisson`), ``"gaussian"``
+  (N(λ, λ), λ + √λ·z in float32) or None;
 * ``full_well_e``: the clip to [0, full well], or None;
 * ``read_sigma_e``: Gaussian read noise (the word table of
   :func:`rollsim.gaussian.normal_from_word`), or None;
@@ -56,7 +56,6 @@ from rollsim.sensor.poisson import (
 )
 
 SHOT_METHODS = ("poisson", "gaussian")
-_SHOT_CODE = {None: 0, "poisson": 1, "gaussian": 2}
 _MIX1 = np.uint64(0xBF58476D1CE4E5B9)
 _MIX2 = np.uint64(0x94D049BB133111EB)
 
@@ -109,13 +108,18 @@ _BAD_MEANS = "mean electrons must be finite and non-negative"
 # ------------------------------------------------------------------ numpy
 
 
+def pixel_normals(key: np.uint64, n: int) -> np.ndarray:
+    """One standard normal (float32) per pixel: from the high half of the word of counter 2i."""
+    return normal_from_words(words(key, np.arange(n, dtype=np.uint64) * np.uint64(2)) >> np.uint64(32),
+                             *normal_tables())
+
+
 def shot_numpy(lam: np.ndarray, key: np.uint64, method: str) -> np.ndarray:
     """Shot noise of flat means ``lam`` (float64), as float32 electrons."""
     if method == "poisson":
         return poisson_numpy(lam, key)
     mean = lam.astype(np.float32)
-    noise = normal_from_words(words(key, np.arange(lam.size, dtype=np.uint64) * np.uint64(2)) >> np.uint64(32),
-                              *normal_tables())
+    noise = pixel_normals(key, lam.size)
     noise *= np.sqrt(mean)
     noise += mean
     return noise
@@ -123,8 +127,7 @@ def shot_numpy(lam: np.ndarray, key: np.uint64, method: str) -> np.ndarray:
 
 def read_noise_numpy(electrons: np.ndarray, key: np.uint64, sigma_e: float) -> np.ndarray:
     """``electrons`` (float32) plus Gaussian read noise of σ ``sigma_e`` from counter stream ``key``."""
-    noise = normal_from_words(words(key, np.arange(electrons.size, dtype=np.uint64) * np.uint64(2)) >> np.uint64(32),
-                              *normal_tables())
+    noise = pixel_normals(key, electrons.size)
     noise *= np.float32(sigma_e)
     noise += electrons
     return noise
@@ -380,7 +383,7 @@ def run_chain(lam: np.ndarray, shot: Optional[Literal["poisson", "gaussian"]], k
     ValueError
         A mean that is NaN, infinite or negative, or inconsistent arguments.
     """
-    if shot not in _SHOT_CODE:
+    if shot is not None and shot not in SHOT_METHODS:
         raise ValueError(f"shot must be one of {list(SHOT_METHODS)} or None, got {shot!r}")
     if shot is not None and keys.shot is None:
         raise ValueError("shot noise needs its key")
@@ -418,4 +421,4 @@ def shot_poisson(key: np.uint64, lam: np.ndarray) -> np.ndarray:
     return run_chain(lam, "poisson", ChainKeys(shot=key))
 
 
-__all__ = ["Adc", "ChainKeys", "SHOT_METHODS", "run_chain", "shot_poisson", "N_CLASSES"]
+__all__ = ["Adc", "CHAIN_ORDER", "ChainKeys", "ChainStep", "SHOT_METHODS", "run_chain", "shot_poisson", "warm_up"]
