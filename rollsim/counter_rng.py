@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 GAMMA = np.uint64(0x9E3779B97F4A7C15)
-_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
-_MIX2 = np.uint64(0x94D049BB133111EB)
+MIX1 = np.uint64(0xBF58476D1CE4E5B9)
+MIX2 = np.uint64(0x94D049BB133111EB)
 _S30, _S27, _S31, _S32 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(32)
 LOW32 = np.uint64(0xFFFFFFFF)
 # A word's 32-bit halves as uniforms on [0, 1): u = w · 2^-32, exact in float64.
@@ -33,18 +33,13 @@ def stream_key(rng: np.random.Generator) -> np.uint64:
 
 
 def mix64(z):
-    """SplitMix64's output function on uint64 (a scalar in a kernel, or an array).
+    """SplitMix64's output function on uint64 arrays (the compiled chain writes the same steps inline).
 
     numpy's uint64 arithmetic wraps modulo 2^64, as the hash needs.
     """
-    z = (z ^ (z >> _S30)) * _MIX1
-    z = (z ^ (z >> _S27)) * _MIX2
+    z = (z ^ (z >> _S30)) * MIX1
+    z = (z ^ (z >> _S27)) * MIX2
     return z ^ (z >> _S31)
-
-
-# The whole-array path keeps the plain function: a compiled kernel that
-# calls mix64 binds its compiled twin under that name (rollsim.jit).
-_mix_arrays = mix64
 
 
 def words(key: np.uint64, counters: np.ndarray) -> np.ndarray:
@@ -53,9 +48,4 @@ def words(key: np.uint64, counters: np.ndarray) -> np.ndarray:
         z = counters.astype(np.uint64) + np.uint64(1)
         z *= GAMMA
         z += np.uint64(key)
-        return _mix_arrays(z)
-
-
-def word_halves(word: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The high and low 32-bit halves of 64-bit words, as uint64 (two uniforms each ``w · 2^-32``)."""
-    return word >> _S32, word & LOW32
+        return mix64(z)

@@ -131,18 +131,13 @@ class Kernel:
     function : callable
         Plain Python over scalars and arrays, in numba's nopython subset,
         defined at module level (numba's on-disk cache keys on its file and
-        name).
-    helpers : tuple of callable
-        Plain module-level functions ``function`` calls, directly or through
-        each other, innermost first.
-        When the kernel compiles, each is compiled too and bound in its
-        module under its own name (a compiled function is still callable
-        from Python, with the same results).
+        name). It calls no other compiled function: numba passes array
+        arguments to a called function with reference counting, which costs
+        more than a kernel's per-pixel work, so a kernel is one flat body.
     """
 
-    def __init__(self, function: Callable, helpers: tuple[Callable, ...] = ()):
+    def __init__(self, function: Callable):
         self.function = function
-        self.helpers = helpers
         self._compiled: Any = None
 
     @property
@@ -152,25 +147,10 @@ class Kernel:
         if numba is None:
             return None
         if self._compiled is None:
-            for helper in self.helpers:
-                plain = getattr(helper, "py_func", helper)
-                name = plain.__name__
-                compiled = plain.__globals__.get(name)
-                if not hasattr(compiled, "py_func"):
-                    # Inlined into the kernel's IR: a call would pass every array
-                    # argument with reference counting, several times the work itself.
-                    compiled = numba.njit(cache=True, nogil=True, inline="always")(plain)
-                # Bound where it is called from: its own module (other helpers) and the kernel's.
-                plain.__globals__[name] = compiled
-                self.function.__globals__[name] = compiled
             self._compiled = numba.njit(cache=True, nogil=True)(self.function)
         return self._compiled
 
 
-def kernel(*helpers: Callable) -> Callable[[Callable], Kernel]:
-    """Decorator: ``@kernel(helper, ...)`` makes a :class:`Kernel` of a function that calls ``helper`` s."""
-
-    def wrap(function: Callable) -> Kernel:
-        return Kernel(function, helpers)
-
-    return wrap
+def kernel(function: Callable) -> Kernel:
+    """Decorator: a :class:`Kernel` of ``function``."""
+    return Kernel(function)

@@ -18,18 +18,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.counter_rng import GAMMA, mix64
 from rollsim.protocol.gf2 import gf2_matmul
 
-_MASK64 = np.uint64(0xFFFFFFFFFFFFFFFF)
-
-
 def _splitmix64(x: np.ndarray) -> np.ndarray:
-    """SplitMix64's output function on uint64 (wrapping arithmetic): a counter-based hash."""
+    """SplitMix64's next output from state ``x`` (uint64, wrapping arithmetic): a counter-based hash."""
     with np.errstate(over="ignore"):
-        z = x + np.uint64(0x9E3779B97F4A7C15)
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        return (z ^ (z >> np.uint64(31))) & _MASK64
+        return mix64(x + GAMMA)
 
 
 def _draw(seeds: np.ndarray, k: int, attempt: int) -> np.ndarray:

@@ -32,7 +32,7 @@ from typing import Any, Literal, Optional
 
 import numpy as np
 
-from rollsim.counter_rng import GAMMA, LOW32, WORD_SCALE, words
+from rollsim.counter_rng import GAMMA, LOW32, MIX1, MIX2, WORD_SCALE, words
 from rollsim.gaussian import normal_from_words, normal_tables
 from rollsim.jit import kernel
 from rollsim.sensor.adc import electrons_to_dn
@@ -56,8 +56,6 @@ from rollsim.sensor.poisson import (
 )
 
 SHOT_METHODS = ("poisson", "gaussian")
-_MIX1 = np.uint64(0xBF58476D1CE4E5B9)
-_MIX2 = np.uint64(0x94D049BB133111EB)
 
 
 @dataclass(frozen=True)
@@ -148,7 +146,7 @@ def _chain_numpy(lam, shot, keys, full_well_e, read_sigma_e, adc, lut):
 # --------------------------------------------------------------- compiled
 
 
-@kernel()
+@kernel
 def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, adc, lut, out,
                   cdf, slot, cdf_start, cdf_size, k_lo, class_means, exp_coefficients, z_body, z_low, z_high):
     # One flat body: numba passes array arguments to a called function with
@@ -173,8 +171,8 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
         elif guide is not None and mean < GAUSSIAN_ABOVE_E:
             # Pixel i's 32-bit words: the halves of the words of counters 2i and 2i + 1.
             z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + shot_key
-            z = (z ^ (z >> np.uint64(30))) * _MIX1
-            z = (z ^ (z >> np.uint64(27))) * _MIX2
+            z = (z ^ (z >> np.uint64(30))) * MIX1
+            z = (z ^ (z >> np.uint64(27))) * MIX2
             word64 = z ^ (z >> np.uint64(31))
             word = word64 >> np.uint64(32)
             total = 0
@@ -213,8 +211,8 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                 part += 1
                 if part == 2:
                     z = (np.uint64(i) * np.uint64(2) + np.uint64(2)) * GAMMA + shot_key
-                    z = (z ^ (z >> np.uint64(30))) * _MIX1
-                    z = (z ^ (z >> np.uint64(27))) * _MIX2
+                    z = (z ^ (z >> np.uint64(30))) * MIX1
+                    z = (z ^ (z >> np.uint64(27))) * MIX2
                     word64 = z ^ (z >> np.uint64(31))
                     word = word64 >> np.uint64(32)
                 else:
@@ -240,8 +238,8 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
         else:
             # Gaussian shot noise, and Poisson means beyond the tables.
             z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + shot_key
-            z = (z ^ (z >> np.uint64(30))) * _MIX1
-            z = (z ^ (z >> np.uint64(27))) * _MIX2
+            z = (z ^ (z >> np.uint64(30))) * MIX1
+            z = (z ^ (z >> np.uint64(27))) * MIX2
             word = (z ^ (z >> np.uint64(31))) >> np.uint64(32)
             top = word >> np.uint64(16)
             if top == 0:
@@ -261,8 +259,8 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
         # -------------------------------------------------- read noise
         if read_sigma is not None:
             z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + read_key
-            z = (z ^ (z >> np.uint64(30))) * _MIX1
-            z = (z ^ (z >> np.uint64(27))) * _MIX2
+            z = (z ^ (z >> np.uint64(30))) * MIX1
+            z = (z ^ (z >> np.uint64(27))) * MIX2
             word = (z ^ (z >> np.uint64(31))) >> np.uint64(32)
             top = word >> np.uint64(16)
             if top == 0:
@@ -315,7 +313,7 @@ def _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, l
     return out
 
 
-@kernel()
+@kernel
 def _classes_kernel(lam, start, class_means, needed):
     # Marks the classes the chain kernel's Poisson steps ask for, from pixel ``start`` on.
     bits_of = lam.view(np.uint64)
