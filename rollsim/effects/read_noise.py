@@ -6,7 +6,6 @@ from typing import TYPE_CHECKING, Literal, Optional
 
 import numpy as np
 
-from rollsim.counter_rng import stream_key
 from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.gaussian import standard_normal
 from rollsim.sensor.chain import ChainKeys, ChainStep, run_chain
@@ -36,7 +35,7 @@ def build_stage(setup: SceneSetup, params: ReadNoise) -> StageRun:
     if params.method == "table":
 
         def run_table(state: FrameState) -> None:
-            keys = ChainKeys(read=stream_key(state.rng(STREAM)))
+            keys = ChainKeys(read=state.counter_key(STREAM))
             state.electrons = run_chain(state.electrons, None, keys, read_sigma_e=sigma_e)
 
         return run_table

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Literal
 
-from rollsim.counter_rng import stream_key
 from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.sensor.chain import ChainKeys, ChainStep, run_chain
 
@@ -34,7 +33,7 @@ def build_stage(setup: SceneSetup, params: ShotNoise) -> StageRun:
     method = params.method
 
     def run(state: FrameState) -> None:
-        state.electrons = run_chain(state.electrons, method, ChainKeys(shot=stream_key(state.rng(STREAM))))
+        state.electrons = run_chain(state.electrons, method, ChainKeys(shot=state.counter_key(STREAM)))
 
     return run
 

@@ -27,7 +27,6 @@ import numpy as np
 
 from rollsim.effects.base import SLOTS, Stage, on_box
 from rollsim.errors import RollsimError
-from rollsim.counter_rng import stream_key
 from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.cfa import demosaic
 from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_chain
@@ -210,8 +209,8 @@ def fused_chain_stage(run: list[Stage]) -> Stage:
     last = CHAIN_ORDER[max(CHAIN_ORDER.index(kind) for kind in steps)]
 
     def run_fused(state):
-        keys = ChainKeys(shot=None if shot is None else stream_key(state.rng(shot.stream)),
-                         read=None if read is None else stream_key(state.rng(read.stream)))
+        keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
+                         read=None if read is None else state.counter_key(read.stream))
         result = run_chain(state.electrons, None if shot is None else shot.value, keys, full_well_e=full_well,
                            read_sigma_e=None if read is None else read.value, adc=adc,
                            lut=None if output is None else output.value)

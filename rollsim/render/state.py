@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from rollsim.counter_rng import stream_key
 from rollsim.seeds import rng as named_rng
 
 if TYPE_CHECKING:
@@ -76,3 +77,8 @@ class FrameState:
         scene seed, the stream name and the frame index, so frames can be
         rendered in any order or in parallel with identical results."""
         return named_rng(self.setup.scene.seed, stream, self.index)
+
+    def counter_key(self, stream: str) -> np.uint64:
+        """The 64-bit counter key of ``stream`` for this frame (:mod:`rollsim.counter_rng`): one
+        draw of :meth:`rng`, the key a noise stage's per-pixel words derive from."""
+        return stream_key(self.rng(stream))
