@@ -20,6 +20,7 @@ from rollsim.protocol.linecode import chips_per_symbol
 from rollsim.protocol.frames import frame_index_from_name
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
+from decoder.equalise import detect_chips
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
@@ -180,6 +181,28 @@ def led_edges(runs: Runs, levels: Binarized, pitch: float):
     return cut_left, cut_right, span
 
 
+# Exposures longer than this many chips are decoded by sequence detection
+# (decoder.equalise): thresholding reads isolated chips up to about 1.4.
+LONG_EXPOSURE_CHIPS = 1.0
+
+
+def equalised_chips(profile: RowProfile, phy: PhyFormat, rows_per_chip: float, exposure_rows: float):
+    """Chips of a profile seen through a long exposure, and the rows a whole PHY-SDU must lie in.
+
+    Returns
+    -------
+    (ChipStream, (first, last) or None)
+        The span (profile rows, widened by half the exposure: a chip is seen
+        by the rows whose exposure touches it) is None when no row is read.
+    """
+    found = detect_chips(profile.values, phy, rows_per_chip, exposure_rows)
+    rows = np.flatnonzero(found.valid)
+    if rows.size == 0:
+        return found.chips, None
+    half = 0.5 * exposure_rows
+    return found.chips, (rows[0] - half - SPAN_TOLERANCE_ROWS, rows[-1] + half + SPAN_TOLERANCE_ROWS)
+
+
 # Row noise, as a fraction of the stripe contrast, above which the profile is
 # smoothed before binarisation.
 SMOOTH_NOISE_FRACTION = 0.05
@@ -210,6 +233,7 @@ def decode_profile(
     include_failed: bool = True,
     include_truncated: bool = False,
     min_contrast: float = MIN_CONTRAST_SIGMA,
+    exposure_rows: float | None = None,
 ) -> list[DecodedPhySdu]:
     """Decode the PHY-SDUs of one row profile.
 
@@ -228,6 +252,10 @@ def decode_profile(
         Also report candidates reaching past the LED's rows.
     min_contrast : float
         Erasure threshold, in noise sigmas (see :mod:`decoder.binarize`).
+    exposure_rows : float, optional
+        Exposure in rows (exposure time / row time). With the chip pitch, an
+        exposure longer than :data:`LONG_EXPOSURE_CHIPS` chips is decoded
+        by sequence detection (:mod:`decoder.equalise`).
 
     Returns
     -------
@@ -235,12 +263,12 @@ def decode_profile(
         In row order.
     """
     options = {"frame_index": frame_index, "region": region, "include_failed": include_failed,
-               "include_truncated": include_truncated, "min_contrast": min_contrast}
+               "include_truncated": include_truncated, "min_contrast": min_contrast, "exposure_rows": exposure_rows}
     return _decode_profile_levels(profile, phy, rows_per_chip, **options)[0]
 
 
 def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, include_failed, include_truncated,
-                           min_contrast) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
+                           min_contrast, exposure_rows=None) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
     """:func:`decode_profile`, the levels it binarised (None when it found no chip pitch), and
     the first and last frame row where it surely saw the LED's stripes (None if nowhere)."""
     # A region too short for a PHY-SDU may still show stripes (the LED's
@@ -252,12 +280,17 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
         return [], None, None
     levels, runs = binarise_at_pitch(profile, phy, pitch, min_contrast)
-    edges = led_edges(runs, levels, pitch)
-    if edges is None:
+    if exposure_rows is not None and exposure_rows > LONG_EXPOSURE_CHIPS * pitch:
+        chips, span = equalised_chips(profile, phy, pitch, exposure_rows)
+    else:
+        edges = led_edges(runs, levels, pitch)
+        if edges is None:
+            return [], levels, None
+        cut_left, cut_right, span = edges
+        chips = runs_to_chips(runs, pitch, levels.q, cut_left, cut_right)
+    if span is None:
         return [], levels, None
-    cut_left, cut_right, span = edges
     seen = (profile.first_row + int(round(span[0])), profile.first_row + int(round(span[1])))
-    chips = runs_to_chips(runs, pitch, levels.q, cut_left, cut_right)
     found = decode_chip_stream(chips, phy, span)
     keep = found.status != TRUNCATED if not include_truncated else np.ones(len(found), dtype=bool)
     if not include_failed:
@@ -300,6 +333,7 @@ def decode_frame(
     min_contrast: float = MIN_CONTRAST_SIGMA,
     block_px: int = 4,
     max_regions: int = 8,
+    exposure_s: float | None = None,
 ) -> list[DecodedPhySdu]:
     """Decode the PHY-SDUs of one frame.
 
@@ -327,6 +361,12 @@ def decode_frame(
         Block size of the detection image, in pixels.
     max_regions : int
         LED regions decoded at most.
+    exposure_s : float, optional
+        Exposure time in seconds (a PNG from rollsim says it:
+        ``exposure_us``). With ``clock_hz`` and ``row_time_s``, an exposure
+        longer than :data:`LONG_EXPOSURE_CHIPS` chips is decoded by
+        sequence detection over the known smear (:mod:`decoder.equalise`);
+        without it, by thresholding, which reads up to about 1.4 chips.
 
     Returns
     -------
@@ -339,11 +379,20 @@ def decode_frame(
         The array is not a frame (see :func:`decoder.io.as_frame_array`).
     """
     options: dict[str, Any] = {"include_failed": include_failed, "include_truncated": include_truncated,
-                               "min_contrast": min_contrast}
+                               "min_contrast": min_contrast, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     decoded: list[DecodedPhySdu] = []
     for index, (_, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
         decoded.extend(decode_profile(profile, phy, pitch, frame_index=frame_index, region=index, **options))
     return decoded
+
+
+def exposure_rows(exposure_s: float | None, row_time_s: float | None) -> float | None:
+    """Exposure in rows, exposure_s / row_time_s; None unless both are known."""
+    if exposure_s is None or row_time_s is None:
+        return None
+    if not (np.isfinite(exposure_s) and exposure_s > 0):
+        raise ValueError(f"exposure_s must be a finite number > 0, got {exposure_s}")
+    return float(exposure_s) / float(row_time_s)
 
 
 def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int):
@@ -408,6 +457,7 @@ def inspect_frame(
     *,
     block_px: int = 4,
     max_regions: int = 8,
+    exposure_s: float | None = None,
 ) -> list[RegionView]:
     """Decode one frame and return, per LED region, what the decoder saw.
 
@@ -415,7 +465,7 @@ def inspect_frame(
     returns (failed ones included, truncated ones not).
     """
     options = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
-               "min_contrast": MIN_CONTRAST_SIGMA}
+               "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     views = []
     for index, (cols, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
         sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, **options)

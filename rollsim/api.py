@@ -319,7 +319,7 @@ def rollsim_decoder(image: np.ndarray, settings) -> list:
     """rollsim's own decoder (:func:`decoder.decode_frame`) as a ``decoder=`` callable."""
     from decoder import decode_frame
 
-    return decode_frame(image, settings.phy, settings.clock_hz, settings.row_time_s)
+    return decode_frame(image, settings.phy, settings.clock_hz, settings.row_time_s, exposure_s=settings.exposure_s)
 
 
 def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", None] = None,

@@ -221,8 +221,9 @@ def _decode_settings(args, run_dir: Path):
         scene = scene_from_dict({}, "<default link>", args.overrides)
         # Without a row time the decoder estimates the chip pitch itself.
         row_time_s = None if args.row_time_us is None else args.row_time_us * 1e-6
-        return DecodeSettings(phy_from_scene(scene), args.clock_hz, row_time_s)
-    return settings_from_scene(scene, args.clock_hz, args.row_time_us)
+        exposure_s = None if args.exposure_us is None else args.exposure_us * 1e-6
+        return DecodeSettings(phy_from_scene(scene), args.clock_hz, row_time_s, exposure_s=exposure_s)
+    return settings_from_scene(scene, args.clock_hz, args.row_time_us, args.exposure_us)
 
 
 def cmd_decode(args) -> int:
@@ -663,6 +664,9 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--clock-hz", type=float, default=None, help="chip rate in Hz (overrides the scene)")
     p.add_argument("--row-time-us", type=float, default=None,
                    help="row time in us (overrides the scene; without a scene and without it, estimated from the frames)")
+    p.add_argument("--exposure-us", type=float, default=None,
+                   help="exposure in us (overrides the scene); exposures longer than a chip are read by sequence "
+                        "detection")
     p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
     p.add_argument("--decoder", metavar="MODULE:FUNCTION", default=None,
                    help="a decoder of your own: FUNCTION(image, settings) returning records of decoded.jsonl's "
@@ -750,7 +754,7 @@ def _add_sweep_command(sub) -> None:
                    help="a swept key: 5,10,15 or start:stop:step or geom:start:stop:count (repeatable: the product)")
     p.add_argument("--zip", action="append", default=[], metavar="KEY=VALUES",
                    help="keys varied together, equally many values each (repeatable)")
-    p.add_argument("--stage", choices=("analytic", "simulate", "run"), default=None,
+    p.add_argument("--stage", choices=("analytic", "simulate", "run", "envelope"), default=None,
                    help="analytic (no rendering), simulate (event simulator) or run (pixel pipeline); default analytic")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.add_argument("--runs", type=_positive_int, default=None, help="simulate: runs per cell (default 1000)")
@@ -849,6 +853,21 @@ def _add_bench_commands(sub) -> None:
     p.add_argument("--repeats", type=_positive_int, default=3, help="run-stage repeats, 1 and 2 workers alternating (default 3)")
     _add_json_file(p)
     _add_force(p)
+
+    p = add("envelope", "where the decoder works: ok %% of fully visible PHY-SDUs, decoder against a genie-aided "
+            "receiver, along exposure, stripe SNR, blur, defocus, rows per chip, LED/background and saturation")
+    p.add_argument("--frames", type=_positive_int, default=None, help="frames per cell (default 16; quick 2)")
+    p.add_argument("--maps", metavar="NAME,...", default=None,
+                   help="maps to run (default all: exposure,snr,blur,defocus,rows_per_chip,contrast,saturation)")
+    p.add_argument("--quick", action="store_true", help="two points per map, two frames per cell (a check, not results)")
+    p.add_argument("--seed", type=int, default=None, help="sweep seed of every map (default: each scene's)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
+    p.add_argument("--scheduler", metavar="ADDRESS", default=None, help="a running Dask scheduler instead")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help="write MAP.csv and MAP.png per map, envelope.md (the boundaries) and envelope.json (all) here")
+    _add_json_file(p)
+    _add_force(p, "those files if present")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
 
     p = add("accuracy", "what accuracy costs: each fidelity setting against the most accurate one, in time, image "
             "error, noise distribution, decode outcomes and the MMBP fit; and each effect's cost")

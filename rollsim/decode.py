@@ -56,21 +56,27 @@ class DecodeSettings:
     decoder : str or None
         ``package.module:function`` of a decoder other than rollsim's
         (:func:`load_decoder`); None for rollsim's.
+    exposure_s : float or None
+        Exposure time in seconds. With the chip pitch, rollsim's decoder
+        reads exposures longer than a chip by sequence detection
+        (:mod:`decoder.equalise`); without it, by thresholding.
     """
 
     phy: PhyFormat
     clock_hz: Optional[float] = None
     row_time_s: Optional[float] = None
     decoder: Optional[str] = None
+    exposure_s: Optional[float] = None
 
     def __post_init__(self):
-        for name, value in (("clock_hz", self.clock_hz), ("row_time_s", self.row_time_s)):
+        for name, value in (("clock_hz", self.clock_hz), ("row_time_s", self.row_time_s),
+                            ("exposure_s", self.exposure_s)):
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise RollsimError(f"{name} = {value}: must be a finite number > 0")
 
     def as_dict(self) -> dict:
         return {"phy": asdict(self.phy), "clock_hz": self.clock_hz, "row_time_s": self.row_time_s,
-                "decoder": self.decoder or "rollsim"}
+                "exposure_s": self.exposure_s, "decoder": self.decoder or "rollsim"}
 
 
 @dataclass
@@ -104,11 +110,13 @@ class DecodeSummary:
         }
 
 
-def settings_from_scene(scene: Scene, clock_hz: Optional[float] = None, row_time_us: Optional[float] = None) -> DecodeSettings:
-    """Decode settings from a scene; ``clock_hz`` and ``row_time_us`` override it."""
+def settings_from_scene(scene: Scene, clock_hz: Optional[float] = None, row_time_us: Optional[float] = None,
+                        exposure_us: Optional[float] = None) -> DecodeSettings:
+    """Decode settings from a scene; ``clock_hz``, ``row_time_us`` and ``exposure_us`` override it."""
     clock = scene.link.clock_hz if clock_hz is None else clock_hz
     row_time_s = scene.camera.row_time_s if row_time_us is None else row_time_us * 1e-6
-    return DecodeSettings(phy_from_scene(scene), float(clock), float(row_time_s))
+    exposure_s = (scene.camera.exposure_us if exposure_us is None else exposure_us) * 1e-6
+    return DecodeSettings(phy_from_scene(scene), float(clock), float(row_time_s), exposure_s=float(exposure_s))
 
 
 def frame_files(directory: Path) -> list[Path]:
@@ -219,7 +227,7 @@ def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings,
     first = chunk[0][0]
     out = []
     for result in decode_frames([path for _, path in chunk], settings.phy, settings.clock_hz, settings.row_time_s,
-                                first_frame=first, max_pixels=max_pixels):
+                                first_frame=first, max_pixels=max_pixels, exposure_s=settings.exposure_s):
         out.append((result.frame, result.to_records(), result.error_record()))
     return out
 

@@ -71,11 +71,11 @@ class DecodedRun:
         if self.measure_stripes:
             # One pass gives both: inspect_frame decodes as decode_frame does
             # (same options) and keeps where it read stripes.
-            views = inspect_frame(*decode_args)
+            views = inspect_frame(*decode_args, exposure_s=settings.exposure_s)
             found = [sdu for view in views for sdu in view.sdus]
             self.stripe_fractions.append(views_stripe_fraction(views, frame.image.shape[0]))
         else:
-            found = decode_frame(*decode_args)
+            found = decode_frame(*decode_args, exposure_s=settings.exposure_s)
         self.decode_s.append(time.perf_counter() - middle)
         self.render_s.append(middle - start)
         self.truth.append(frame.truth)

@@ -34,7 +34,8 @@ def decode_ms_per_frame(scene_name: str, frames: int) -> tuple[float, float]:
     cv2.setNumThreads(1)
     try:
         decode = 1e3 * seconds_per_call(
-            lambda i: decode_frame(images[i % frames], settings.phy, settings.clock_hz, settings.row_time_s, i), frames
+            lambda i: decode_frame(images[i % frames], settings.phy, settings.clock_hz, settings.row_time_s, i,
+                                   exposure_s=settings.exposure_s), frames
         )
         with tempfile.TemporaryDirectory() as tmp:
             paths = []

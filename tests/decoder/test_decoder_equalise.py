@@ -1,0 +1,169 @@
+"""decoder.equalise: sequence detection of chips seen through an exposure longer than a chip."""
+
+import itertools
+
+import numpy as np
+import pytest
+from synth import make_transmitter, row_levels, visible_truth
+
+from rollsim.protocol import PhyFormat
+from decoder.equalise import (
+    Levels,
+    branch_metrics,
+    chip_grid,
+    detect_chips,
+    memory_chips,
+    row_weights,
+    smeared,
+    viterbi,
+)
+from decoder.pipeline import decode_frame, decode_profile
+from decoder.profile import RowProfile
+
+PHY = PhyFormat(5, 19)
+ROW_TIME_S = 27.8e-6
+
+
+def test_viterbi_equals_exhaustive_search():
+    # Exact enumeration: every sequence of 8 chips and of the L − 1 chips
+    # before them (unknown history), costs from the same metrics.
+    rng = np.random.default_rng(3)
+    memory, n_chips = 3, 8
+    metrics = rng.exponential(1.0, size=(2, n_chips, 2**memory))
+    chips, cost = viterbi(metrics)
+    for grid in range(2):
+        best, best_cost = None, np.inf
+        for seq in itertools.product((0, 1), repeat=n_chips + memory - 1):
+            total = sum(metrics[grid, c, sum(seq[c + k] << k for k in range(memory))] for c in range(n_chips))
+            if total < best_cost - 1e-12:
+                best, best_cost = seq[memory - 1 :], total
+        assert cost[grid] == pytest.approx(best_cost, rel=1e-12)
+        assert tuple(chips[grid]) == best
+
+
+@pytest.mark.parametrize("exposure_chips, rows_per_chip", [(0.3, 4.5), (1.36, 4.5), (3.0, 4.5), (2.5, 2.0), (4.0, 9.0)])
+def test_row_weights_are_the_exposure_integral(exposure_chips, rows_per_chip):
+    n, exposure = 120, exposure_chips * rows_per_chip
+    grid = chip_grid(n, exposure, rows_per_chip, 0.37 * rows_per_chip)
+    memory = memory_chips(exposure, rows_per_chip)
+    last, weights = row_weights(n, exposure, grid, memory)
+    assert np.allclose(weights.sum(axis=1), 1.0)
+    chips = np.random.default_rng(0).integers(0, 2, grid.n_chips)
+    # Fine numerical integral of the chip waveform over each row's window.
+    u = np.linspace(-0.5, 0.5, 4001)
+    t = np.arange(n)[:, None] + exposure * u[None, :]
+    index = np.floor((t - grid.phase_rows) / rows_per_chip).astype(int)
+    numeric = chips[np.clip(index, 0, grid.n_chips - 1)].mean(axis=1)
+    assert np.allclose(smeared(chips, last, weights), numeric, atol=2e-3)
+
+
+def test_constant_on_and_one_chip_inside_a_window():
+    # A constant ON waveform gives s = 1; a single ON chip inside a longer
+    # window gives its share P / E.
+    n, pitch, exposure = 60, 4.0, 10.0
+    grid = chip_grid(n, exposure, pitch, 0.0)
+    memory = memory_chips(exposure, pitch)
+    last, weights = row_weights(n, exposure, grid, memory)
+    assert np.allclose(smeared(np.ones(grid.n_chips, np.int8), last, weights), 1.0)
+    one = np.zeros(grid.n_chips, np.int8)
+    one[8] = 1
+    s = smeared(one, last, weights)
+    assert s.max() == pytest.approx(pitch / exposure)
+
+
+def smeared_profile(exposure_chips, rows_per_chip, noise_fraction=0.0, n_rows=900, seed=0, phy=PHY):
+    """A row profile of the LED's exact exposure, with drifting levels and Gaussian noise."""
+    clock_hz = 1.0 / (rows_per_chip * ROW_TIME_S)
+    exposure_s = exposure_chips / clock_hz
+    tx = make_transmitter(phy, clock_hz=clock_hz, start_s=3.1e-4)
+    level = row_levels(tx, n_rows, ROW_TIME_S, exposure_s)
+    rows = np.arange(n_rows)
+    off = 40.0 + 15.0 * rows / n_rows
+    gap = 60.0 * (1.0 - 0.4 * ((rows - n_rows / 2) / n_rows) ** 2)
+    noise = noise_fraction * 60.0
+    values = off + gap * level + np.random.default_rng(seed).normal(0.0, 1.0, n_rows) * noise
+    truth = visible_truth(tx, (0, n_rows - 1), ROW_TIME_S, exposure_s)
+    return RowProfile(0, values, np.full(n_rows, max(noise, 0.3))), truth, exposure_s / ROW_TIME_S
+
+
+@pytest.mark.parametrize("exposure_chips, rows_per_chip", [(1.2, 4.5), (2.0, 4.5), (3.0, 4.5), (4.0, 4.5),
+                                                           (3.0, 8.0), (2.0, 3.0)])
+def test_long_exposures_are_read_exactly(exposure_chips, rows_per_chip):
+    n_rows = int(max(900, 200 * rows_per_chip))
+    profile, truth, exposure_rows = smeared_profile(exposure_chips, rows_per_chip, noise_fraction=0.01, n_rows=n_rows)
+    found = decode_profile(profile, PHY, rows_per_chip, exposure_rows=exposure_rows)
+    ok = {(sdu.sequence, sdu.bits) for sdu in found if sdu.check_ok}
+    # Every PHY-SDU whose chips the profile holds whole, away from its ends.
+    inner = [t for t in truth if t["first_row_f"] > exposure_rows and t["last_row_f"] < len(profile) - exposure_rows]
+    assert len(inner) >= 2
+    assert {(t["sequence"], t["bits"]) for t in inner} <= ok
+    assert all(sdu.check_ok for sdu in found)
+
+
+@pytest.mark.parametrize("phy", [PhyFormat(5, 19, "crc8"), PhyFormat(5, 19, "parity2", "4b6b")],
+                         ids=lambda p: f"{p.check}-{p.line_code}")
+def test_other_formats_at_three_chips(phy):
+    profile, truth, exposure_rows = smeared_profile(3.0, 4.5, noise_fraction=0.01, phy=phy)
+    found = decode_profile(profile, phy, 4.5, exposure_rows=exposure_rows)
+    inner = [t for t in truth if t["first_row_f"] > exposure_rows and t["last_row_f"] < len(profile) - exposure_rows]
+    assert {(t["sequence"], t["bits"]) for t in inner} <= {(s.sequence, s.bits) for s in found if s.check_ok}
+
+
+@pytest.mark.parametrize("exposure_chips, rows_per_chip", [(1.2, 4.5), (3.0, 4.5), (4.0, 2.0), (2.0, 10.0), (6.0, 4.5)])
+def test_noise_alone_is_erased(exposure_chips, rows_per_chip):
+    # The detector always finds *some* best sequence; in pure noise every
+    # row must be an erasure, so no chip and no candidate comes out.
+    rng = np.random.default_rng(11)
+    for _ in range(4):
+        values = 100.0 + rng.normal(0.0, 1.5, 1080)
+        found = detect_chips(values, PHY, rows_per_chip, exposure_chips * rows_per_chip)
+        assert not found.valid.any()
+        assert np.all(found.chips.values < 0)
+        assert decode_profile(RowProfile(0, values, np.full(1080, 1.5 / 40)), PHY, rows_per_chip,
+                              exposure_rows=exposure_chips * rows_per_chip) == []
+
+
+def test_clipped_rows_follow_the_ceiling():
+    # Saturation: the row means stop at a ceiling that the SYNC's long ON run
+    # reaches; the detector still reads every PHY-SDU.
+    profile, truth, exposure_rows = smeared_profile(3.0, 4.5, noise_fraction=0.005)
+    top = np.percentile(profile.values, 85.0)
+    clipped = RowProfile(0, np.minimum(profile.values, top), profile.noise)
+    found = decode_profile(clipped, PHY, 4.5, exposure_rows=exposure_rows)
+    inner = [t for t in truth if t["first_row_f"] > exposure_rows and t["last_row_f"] < len(profile) - exposure_rows]
+    assert {(t["sequence"], t["bits"]) for t in inner} <= {(s.sequence, s.bits) for s in found if s.check_ok}
+
+
+def test_levels_model_is_clipped_and_bent():
+    levels = Levels(np.array([10.0]), np.array([100.0]), np.array([20.0]), np.array([95.0]))
+    assert levels.model(np.array([0.0])) == pytest.approx(10.0)
+    assert levels.model(np.array([0.5])) == pytest.approx(10.0 + 50.0 + 5.0)
+    assert levels.model(np.array([1.0])) == pytest.approx(95.0)
+    metrics = branch_metrics(np.array([60.0]), levels, np.ones(1), np.array([0]), np.array([[0.5, 0.5]]), 1)
+    assert metrics.shape == (1, 4)
+
+
+@pytest.mark.parametrize("rows_per_chip, exposure_rows, field", [(0.0, 5.0, "rows_per_chip"), (4.5, 0.0, "exposure_rows"),
+                                                                 (4.5, -1.0, "exposure_rows"), (4.5, 50.0, "exposure_rows")])
+def test_bad_parameters_are_refused(rows_per_chip, exposure_rows, field):
+    with pytest.raises(ValueError, match=field):
+        detect_chips(np.zeros(100), PHY, rows_per_chip, exposure_rows)
+
+
+def test_decode_frame_refuses_a_bad_exposure():
+    with pytest.raises(ValueError, match="exposure_s"):
+        decode_frame(np.zeros((64, 64), np.uint8), PHY, 8000.0, ROW_TIME_S, exposure_s=-1e-4)
+
+
+def test_three_chip_exposure_scene_is_read():
+    # The issue's target: >= 95 % of the fully visible PHY-SDUs of
+    # paper-default's link at three chips of exposure (375 us at 8 kHz), at
+    # paper-default's brightness; none decoded falsely. 60 frames measured
+    # 97.0 % (197 of 203).
+    from rollsim.scene import load_scene
+    from rollsim.stream import scene_outcomes
+
+    summary = scene_outcomes(load_scene("stress-exposure-3chips"), 20)
+    assert summary["fully_visible"] >= 60
+    assert summary["counts"]["ok"] >= 0.95 * summary["fully_visible"]
+    assert summary["false_decodes"] == 0 and summary["counts"]["undetected_error"] == 0
