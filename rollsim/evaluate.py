@@ -20,7 +20,10 @@ which no truth record lists:
 
 An emission decoded in two frames keeps its best verdict (ok, then
 undetected_error, then corrupted). A decode that matches no emission is a
-*false decode*.
+*false decode*; ``false_decodes_check_passed`` counts those whose check
+passed, the only ones that can mislead a receiver (the others are records of
+candidates that failed the line code or the check, reported because a
+decoder was asked for its failures too).
 
 Rates in the summary:
 
@@ -214,6 +217,7 @@ def summarise(outcomes: list[dict], false_decodes: list, n_frames: int) -> dict:
         "counts": counts,
         "fully_visible_counts": visible_counts,
         "false_decodes": len(false_decodes),
+        "false_decodes_check_passed": sum(1 for d in false_decodes if d.get("check_ok")),
         "error_rate": (1.0 - visible_counts["ok"] / fully) if fully else None,
         "corrupted_rate": (visible_counts["corrupted"] / fully) if fully else None,
         "missed_rate": (counts["missed"] / fully) if fully else None,
@@ -445,7 +449,8 @@ def format_summary(summary: dict) -> str:
     ]
     lines += [f"  {name:<17} {count}" for name, count in summary["counts"].items()]
     lines += [
-        f"  {'false decodes':<17} {summary['false_decodes']}",
+        f"  {'false decodes':<17} {summary['false_decodes']}"
+        + (f" ({summary['false_decodes_check_passed']} with the check passed)" if summary["false_decodes"] else ""),
         f"error rate (fully visible)      {format_percent(summary['error_rate'])}",
         f"missed rate (fully visible)     {format_percent(summary['missed_rate'])}",
         f"undetected-error rate (passed)  {format_percent(summary['undetected_error_rate'])}",

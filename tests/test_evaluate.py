@@ -60,17 +60,20 @@ def test_verdicts_ok_corrupted_undetected_and_false_decodes(rendered):
         _decode_of(s1, f1, check_ok=False),
         _decode_of(s2, f2, bits=flipped),
         {"frame": 0, "first_row": 5000.0, "last_row": 5100.0, "sequence": 1, "bits": "0", "check_ok": True},
+        {"frame": 1, "first_row": 5000.0, "last_row": 5100.0, "sequence": 2, "bits": "1", "check_ok": False},
     ]
     result = evaluate(truth, decoded, tx)
     by_tx = {row["tx"]: row for row in result.outcomes}
     assert by_tx[s0["tx"]]["outcome"] == "ok" and by_tx[s0["tx"]]["success"]
     assert by_tx[s1["tx"]]["outcome"] == "corrupted"
     assert by_tx[s2["tx"]]["outcome"] == "undetected_error"
-    assert len(result.false_decodes) == 1
+    assert len(result.false_decodes) == 2
     summary = result.summary
     assert summary["counts"]["ok"] == 1 and summary["undetected_error_rate"] == 0.5
-    assert summary["false_decodes_per_1000_frames"] == pytest.approx(1000 / 6)
-    assert "false decodes" in format_summary(summary)
+    # Only the false decode whose check passed could mislead a receiver.
+    assert summary["false_decodes_check_passed"] == 1
+    assert summary["false_decodes_per_1000_frames"] == pytest.approx(2000 / 6)
+    assert "(1 with the check passed)" in format_summary(summary)
 
 
 def test_best_verdict_wins_when_decoded_twice(rendered):

@@ -54,7 +54,8 @@ def _scene_lines(scene: Scene) -> list[str]:
 
 
 def _evaluation_lines(summary: dict) -> list[str]:
-    rows = [*summary["counts"].items(), ("false decodes", summary["false_decodes"])]
+    rows = [*summary["counts"].items(), ("false decodes", summary["false_decodes"]),
+            ("false decodes, check passed", summary.get("false_decodes_check_passed", 0))]
     lines = markdown_table(rows, ("outcome", "PHY-SDUs"))
     lines += [
         "",
