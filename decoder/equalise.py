@@ -235,36 +235,57 @@ def smeared(chips: np.ndarray, last_chip: np.ndarray, weights: np.ndarray) -> np
     return np.sum(weights * seen, axis=1)
 
 
-def spline_basis(n_rows: int, spacing_rows: float) -> np.ndarray:
-    """Cubic B-splines with knots every ``spacing_rows`` rows, evaluated on rows 0 … n − 1.
+@dataclass(frozen=True)
+class SplineBasis:
+    """Cubic B-splines on rows 0 … n − 1, stored by their four non-zero values per row.
 
-    Returns
-    -------
-    ndarray of float64, shape (n_rows, n_splines)
+    Attributes
+    ----------
+    columns : ndarray of int64, shape (n_rows, 4)
+        The splines that are non-zero on each row.
+    values : ndarray of float64, shape (n_rows, 4)
+        Their values there.
+    n_splines : int
     """
+
+    columns: np.ndarray
+    values: np.ndarray
+    n_splines: int
+
+    def evaluate(self, coefficients: np.ndarray) -> np.ndarray:
+        """Σ_j B_ij c_j for every row."""
+        return np.sum(self.values * coefficients[self.columns], axis=1)
+
+
+def spline_basis(n_rows: int, spacing_rows: float) -> SplineBasis:
+    """Cubic B-splines with knots every ``spacing_rows`` rows (about), on rows 0 … n − 1."""
     from scipy.interpolate import BSpline
 
     last = float(max(n_rows - 1, 1))
     count = max(int(np.ceil(last / spacing_rows)), 1)
     inner = np.linspace(0.0, last, count + 1)
     knots = np.concatenate([[0.0] * 3, inner, [last] * 3])
-    return BSpline.design_matrix(np.arange(n_rows, dtype=np.float64).clip(0.0, last), knots, 3).toarray()
+    matrix = BSpline.design_matrix(np.arange(n_rows, dtype=np.float64).clip(0.0, last), knots, 3).tocsr()
+    # Each row has exactly k + 1 = 4 stored entries (zeros included).
+    columns = matrix.indices.reshape(n_rows, 4).astype(np.int64)
+    return SplineBasis(columns, matrix.data.reshape(n_rows, 4), int(matrix.shape[1]))
 
 
-def fit_levels(values: np.ndarray, smear: np.ndarray, basis: np.ndarray, weight: np.ndarray, ceiling: np.ndarray,
+def fit_levels(values: np.ndarray, smear: np.ndarray, basis: SplineBasis, weight: np.ndarray, ceiling: np.ndarray,
                smoothing: float = LEVEL_SMOOTHING) -> Levels:
     """Least-squares levels y ≈ off + gap·s + bend·s(1 − s), smooth along the profile.
 
     off, gap and bend are cubic splines (``basis``); a penalty on their second
     differences (a P-spline) keeps them defined where s never changes (a
-    long run of equal chips, the profile's ends).
+    long run of equal chips, the profile's ends). The normal equations are
+    accumulated from each row's 12 non-zero design entries.
 
     Parameters
     ----------
     values : ndarray, shape (n,)
     smear : ndarray, shape (n,)
         The model's s_i in [0, 1] for the chips decided.
-    basis : ndarray, shape (n, k)
+    basis : SplineBasis
         :func:`spline_basis`.
     weight : ndarray, shape (n,)
         Weight of each row (0 leaves it out).
@@ -278,19 +299,23 @@ def fit_levels(values: np.ndarray, smear: np.ndarray, basis: np.ndarray, weight:
     -------
     Levels
     """
-    k = basis.shape[1]
+    k = basis.n_splines
     weight = np.where(values < ceiling, weight, 0.0)
-    design = np.hstack([basis, basis * smear[:, None], basis * (smear * (1.0 - smear))[:, None]])
-    weighted = design * weight[:, None]
-    normal = weighted.T @ design
+    factors = np.stack([np.ones_like(smear), smear, smear * (1.0 - smear)], axis=1)       # (n, 3)
+    entries = (factors[:, :, None] * basis.values[:, None, :]).reshape(-1, 12)          # (n, 12)
+    columns = (np.arange(3)[:, None] * k + basis.columns[:, None, :]).reshape(-1, 12)
+    pairs = (columns[:, :, None] * (3 * k) + columns[:, None, :]).ravel()
+    products = (weight[:, None, None] * entries[:, :, None] * entries[:, None, :]).ravel()
+    normal = np.bincount(pairs, products, (3 * k) ** 2).reshape(3 * k, 3 * k)
+    rhs = np.bincount(columns.ravel(), (weight[:, None] * entries * values[:, None]).ravel(), 3 * k)
     second = np.diff(np.eye(k), 2, axis=0)
     penalty = smoothing * max(float(np.mean(weight)), 1e-12) * (second.T @ second)
     for block in range(3):
         normal[block * k : (block + 1) * k, block * k : (block + 1) * k] += penalty
     # A tiny ridge keeps the system regular where a block is unidentified.
     ridge = 1e-9 * max(float(np.trace(normal)), 1e-300) / (3 * k)
-    coef = np.linalg.solve(normal + ridge * np.eye(3 * k), weighted.T @ values)
-    return Levels(basis @ coef[:k], basis @ coef[k : 2 * k], basis @ coef[2 * k :], ceiling)
+    coef = np.linalg.solve(normal + ridge * np.eye(3 * k), rhs)
+    return Levels(basis.evaluate(coef[:k]), basis.evaluate(coef[k : 2 * k]), basis.evaluate(coef[2 * k :]), ceiling)
 
 
 def profile_ceiling(values: np.ndarray, window_rows: int, margin: float) -> np.ndarray:
