@@ -306,7 +306,7 @@ def fit_levels(values: np.ndarray, smear: np.ndarray, basis: SplineBasis, weight
     columns = (np.arange(3)[:, None] * k + basis.columns[:, None, :]).reshape(-1, 12)
     pairs = (columns[:, :, None] * (3 * k) + columns[:, None, :]).ravel()
     products = (weight[:, None, None] * entries[:, :, None] * entries[:, None, :]).ravel()
-    normal = np.bincount(pairs, products, (3 * k) ** 2).reshape(3 * k, 3 * k)
+    normal = np.bincount(pairs, products, (3 * k) ** 2).astype(np.float64).reshape(3 * k, 3 * k)
     rhs = np.bincount(columns.ravel(), (weight[:, None] * entries * values[:, None]).ravel(), 3 * k)
     second = np.diff(np.eye(k), 2, axis=0)
     penalty = smoothing * max(float(np.mean(weight)), 1e-12) * (second.T @ second)

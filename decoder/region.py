@@ -38,6 +38,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 # Otsu's two classes must lie this many noise standard deviations apart
 # (of block means) before the bright one counts as an LED. Pure Gaussian
@@ -257,6 +258,12 @@ def detect_regions(
     if rows_per_chip is not None and rows_per_chip > 0:
         modulated = modulated_mask(gray, rows_per_chip / image.factor, kernel_rows, _block_quantisation(image, gray))
     if found is None:
+        if rows_per_chip is not None and rows_per_chip > 0:
+            # Neither the level nor the blocks' own stripe power shows an
+            # LED: look for stripes common to many columns.
+            common = common_stripes_mask(image, rows_per_chip, kernel_rows)
+            if common.sum() > (0 if modulated is None else modulated.sum()):
+                modulated = common
         if modulated is None or not modulated.any():
             return []
         found = (modulated, gray, np.inf)
@@ -397,6 +404,95 @@ def modulated_mask(gray: np.ndarray, chip_blocks: float, kernel_rows: int, floor
         # The row smoothing spreads a footprint's sides by half its width.
         modulated = cv2.erode(modulated, np.ones((1, width), np.uint8))
     return close_vertically(modulated, kernel_rows)
+
+
+# Columns per band (blocks) of the common-stripes detector, rows per chip of
+# its high-pass, and its significance threshold (correlation z-score). Pure
+# Gaussian noise frames reach about 4.5 at most (1080p, 2 to 20 rows per chip).
+COMMON_BAND_BLOCKS = 8
+COMMON_HIGHPASS_CHIPS = 3.0
+COMMON_WINDOW_CHIPS = 24.0
+MIN_COMMON_Z = 6.0
+
+
+def band_profiles(image: BlockImage, band_blocks: int = COMMON_BAND_BLOCKS) -> np.ndarray:
+    """Row means of the frame over bands of ``band_blocks`` block columns, at full row resolution.
+
+    Returns
+    -------
+    ndarray of float64, shape (height, n_bands)
+    """
+    frame = image.frame.astype(np.float32, copy=False)
+    if frame.ndim == 3:
+        frame = frame.mean(axis=2)
+    band_px = band_blocks * image.factor
+    n_bands = frame.shape[1] // band_px
+    if n_bands == 0:
+        return np.zeros((frame.shape[0], 0))
+    return frame[:, : n_bands * band_px].reshape(frame.shape[0], n_bands, band_px).mean(axis=2, dtype=np.float64)
+
+
+def common_stripes_z(profiles: np.ndarray, rows_per_chip: float) -> np.ndarray:
+    """How strongly each band's stripes follow the other bands', row by row (a z-score).
+
+    An LED's stripes are the same in every column it covers (the rolling
+    shutter makes them a function of the row), while noise is independent
+    from one band of columns to the next. Each band's profile is high-passed
+    (less its running mean over a few chips), then correlated, over windows
+    of several chips, with the mean of the other bands' weighted by how well
+    they followed it in a first pass; the correlation times the square root
+    of the window is about N(0, 1) for a band of noise.
+
+    Returns
+    -------
+    ndarray of float64, shape (height, n_bands)
+    """
+    n_rows, n_bands = profiles.shape
+    if n_bands < 3 or n_rows < 8:
+        return np.zeros(profiles.shape)
+    high = profiles - uniform_filter1d(profiles, max(3, int(COMMON_HIGHPASS_CHIPS * rows_per_chip)), axis=0,
+                                       mode="nearest")
+    window = max(8, int(COMMON_WINDOW_CHIPS * rows_per_chip))
+    held = uniform_filter1d(np.ones(n_rows), window, mode="constant") * window
+    weights = np.ones(n_bands)
+    z = np.zeros(profiles.shape)
+    for _ in range(2):
+        total = high @ weights
+        # Leave each band out of the signal it is compared with.
+        others = total[:, None] - high * weights[None, :]
+        # Zeros beyond the frame's ends (not repeated edge rows): the rows a
+        # window really holds set its z-score.
+        cross = uniform_filter1d(high * others, window, axis=0, mode="constant")
+        own = uniform_filter1d(high * high, window, axis=0, mode="constant")
+        ref = uniform_filter1d(others * others, window, axis=0, mode="constant")
+        denominator = np.sqrt(own * ref)
+        correlation = np.divide(cross, denominator, out=np.zeros_like(cross), where=denominator > 0)
+        z = correlation * np.sqrt(held)[:, None]
+        weights = np.clip(np.median(z, axis=0), 0.0, None)
+        if not weights.any():
+            break
+    return z
+
+
+def common_stripes_mask(image: BlockImage, rows_per_chip: float, kernel_rows: int) -> np.ndarray:
+    """Blocks whose column band shows the stripes the other bands show.
+
+    The detector of last resort for an LED whose mean level does not clear
+    the background and whose stripes are too weak in any one block
+    (:func:`common_stripes_z`). Returns a uint8 mask on the block grid,
+    closed vertically like the others.
+    """
+    n_block_rows, n_block_cols = image.blocks.shape[:2]
+    z = common_stripes_z(band_profiles(image), rows_per_chip)
+    mask = np.zeros((n_block_rows, n_block_cols), np.uint8)
+    if z.size == 0:
+        return mask
+    rows = np.minimum(np.arange(image.height) // image.factor, n_block_rows - 1)
+    strong = np.zeros((n_block_rows, z.shape[1]))
+    np.maximum.at(strong, rows, z)
+    bands = (strong > MIN_COMMON_Z).astype(np.uint8)
+    mask[:, : bands.shape[1] * COMMON_BAND_BLOCKS] = np.repeat(bands, COMMON_BAND_BLOCKS, axis=1)
+    return close_vertically(mask, kernel_rows)
 
 
 # E[min(a², b²)] / E[a²] for the differences a, b of a value with its left
