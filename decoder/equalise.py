@@ -41,6 +41,10 @@ from decoder.timing import ChipStream
 
 # Phases of the chip grid tried per chip.
 PHASES = 16
+# Pitches tried about the nominal one (a row time off by up to this
+# fraction), in this many steps.
+PITCH_SPAN = 0.006
+PITCH_STEPS = 9
 # Detect, refit the levels on the decisions, detect again: passes.
 LEVEL_PASSES = 3
 # Longest exposure (chips) handled: 2^(L−1) states with L = ⌈E/P⌉ + 1.
@@ -457,11 +461,26 @@ def detect_chips(values: np.ndarray, phy: PhyFormat, rows_per_chip: float, expos
     # The phase is chosen once, on the first guess of the levels; the
     # passes after it refine the levels and the chips on that grid.
     best, chips = _best_grid(values, levels, inv_var, grids, layout)
+    # A row time a little off makes the grid drift by a chip over a few
+    # hundred: try pitches around the nominal one, anchored mid-profile.
+    grids = pitch_candidates(grids[best], n, exposure_rows)
+    layout = [row_weights(n, exposure_rows, grid, memory) for grid in grids]
+    best, chips = _best_grid(values, levels, inv_var, grids, layout)
     grid, (last_chip, weights) = grids[best], layout[best]
     for _ in range(LEVEL_PASSES):
         levels = fit_levels(values, smeared(chips, last_chip, weights), basis, inv_var, ceiling)
         _, chips = _best_grid(values, levels, inv_var, [grid], [(last_chip, weights)])
     return _equalised(values, chips, grid, (last_chip, weights), levels, exposure_rows, min_modulation_sigma)
+
+
+def pitch_candidates(grid: ChipGrid, n_rows: int, exposure_rows: float) -> list[ChipGrid]:
+    """Grids of pitches within ±:data:`PITCH_SPAN` of ``grid``'s, each at three phases about its edge nearest mid-profile."""
+    middle = 0.5 * (n_rows - 1)
+    pitch = grid.rows_per_chip
+    edge = grid.phase_rows + pitch * np.round((middle - grid.phase_rows) / pitch)
+    step = pitch / PHASES
+    return [chip_grid(n_rows, exposure_rows, pitch * factor, (edge + shift) % (pitch * factor))
+            for factor in 1.0 + PITCH_SPAN * np.linspace(-1.0, 1.0, PITCH_STEPS) for shift in (-step, 0.0, step)]
 
 
 def _best_grid(values, levels, inv_var, grids, layout) -> tuple[int, np.ndarray]:

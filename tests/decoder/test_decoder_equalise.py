@@ -167,3 +167,14 @@ def test_three_chip_exposure_scene_is_read():
     assert summary["fully_visible"] >= 60
     assert summary["counts"]["ok"] >= 0.95 * summary["fully_visible"]
     assert summary["false_decodes"] == 0 and summary["counts"]["undetected_error"] == 0
+
+
+@pytest.mark.parametrize("error", [-0.004, 0.004])
+def test_a_row_time_slightly_off_is_absorbed(error):
+    # The nominal pitch 0.4 % off drifts by a chip over 250 chips; the
+    # pitch search around it (PITCH_SPAN) finds the true one.
+    profile, truth, exposure_rows = smeared_profile(3.0, 4.5, noise_fraction=0.01, n_rows=1080)
+    found = decode_profile(profile, PHY, 4.5 * (1.0 + error), exposure_rows=exposure_rows)
+    inner = [t for t in truth if t["first_row_f"] > exposure_rows and t["last_row_f"] < len(profile) - exposure_rows]
+    assert len(inner) >= 2
+    assert {(t["sequence"], t["bits"]) for t in inner} <= {(s.sequence, s.bits) for s in found if s.check_ok}
