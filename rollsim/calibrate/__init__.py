@@ -29,6 +29,7 @@ from rollsim.calibrate.mmbp import (
     fit_mmbp_aligned,
     fit_mmbp_cycle,
     p_e_text,
+    wilson_interval,
     zero_failure_bound,
 )
 from rollsim.calibrate.replay import mmbp_goodput_bps, replay_goodput_bps
@@ -179,6 +180,7 @@ __all__ = [
     "calibrate",
     "clopper_pearson",
     "p_e_text",
+    "wilson_interval",
     "zero_failure_bound",
     "fit_ge",
     "fit_mmbp",

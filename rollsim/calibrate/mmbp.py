@@ -105,6 +105,48 @@ def clopper_pearson(failures: int, trials: int, level: float = 0.95) -> tuple[fl
     return low, high
 
 
+def wilson_interval(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion.
+
+    With k successes in n trials, p̂ = k/n and z the normal quantile of
+    ``(1 + level) / 2``, the interval is
+
+        (p̂ + z²/2n ± z·sqrt(p̂(1 − p̂)/n + z²/4n²)) / (1 + z²/n),
+
+    which stays inside [0, 1] and is not empty at k = 0 or k = n.
+
+    Parameters
+    ----------
+    successes : int
+        k, 0 ≤ k ≤ n.
+    trials : int
+        n ≥ 1.
+    level : float
+        Coverage, in (0, 1).
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper ends, as fractions.
+    """
+    if trials <= 0:
+        raise ValueError(f"trials = {trials}: must be >= 1")
+    if not 0 <= successes <= trials:
+        raise ValueError(f"successes = {successes}: must be in [0, trials = {trials}]")
+    if not 0.0 < level < 1.0:
+        raise ValueError(f"level = {level}: must be in (0, 1)")
+    from statistics import NormalDist
+
+    z = NormalDist().inv_cdf(0.5 + 0.5 * level)
+    n, p = float(trials), successes / trials
+    centre = (p + z * z / (2.0 * n)) / (1.0 + z * z / n)
+    half = z * math.sqrt(p * (1.0 - p) / n + z * z / (4.0 * n * n)) / (1.0 + z * z / n)
+    # Exact ends at k = 0 and k = n (the formula gives them up to rounding).
+    low = 0.0 if successes == 0 else max(0.0, centre - half)
+    high = 1.0 if successes == trials else min(1.0, centre + half)
+    return low, high
+
+
 def zero_failure_bound(trials: int, level: float = 0.95) -> float:
     """One-sided upper bound of a proportion after 0 failures in ``trials``.
 

@@ -222,7 +222,7 @@ def sweep(scene: Scene, grid: Optional[dict] = None, stage: str = "analytic", *,
         A bundled scene name or a scene file.
     grid : dict, optional
         ``{key: VALUES}``: each key's values as text (``"5:40:5"``) or a list.
-    stage : {"analytic", "simulate", "run"}
+    stage : {"analytic", "simulate", "run", "envelope"}
     zip : dict, optional
         Keys varied together.
     overrides : iterable of str

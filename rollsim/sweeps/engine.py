@@ -29,7 +29,7 @@ SCHEDULER_TIMEOUT_S = 6
 # Wall time a task should take (seconds) and the work a stage's cell costs,
 # to size batches: the scheduler spends ~1 ms per task.
 _TASK_TARGET_S = 0.25
-_CELL_COST_S = {"analytic": 0.001, "simulate": 0.2, "run": 1.0}
+_CELL_COST_S = {"analytic": 0.001, "simulate": 0.2, "run": 1.0, "envelope": 1.0}
 
 
 # What each stage's cells import, loaded as a worker starts (in parallel with
@@ -40,6 +40,7 @@ STAGE_MODULES = {
     "analytic": ("rollsim.channel.prediction", "rollsim.sweeps.stages"),
     "simulate": ("rollsim.channel.scene_channel", "rollsim.channel.eventsim", "rollsim.sweeps.stages"),
     "run": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.calibrate", "rollsim.stream", "decoder"),
+    "envelope": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.stream", "rollsim.genie", "decoder"),
 }
 
 

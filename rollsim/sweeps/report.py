@@ -24,6 +24,8 @@ FIGURES: dict[str, list[tuple[str, tuple | None]]] = {
                  ("duration_s_mean", ("duration_s_ci_low", "duration_s_ci_high")), ("completed_fraction", None)],
     "run": [("error_rate", None), ("p_e", ("p_e_ci_low", "p_e_ci_high")), ("M", None), ("N", None),
             ("goodput_replayed_bps", None), ("goodput_predicted_bps", None)],
+    "envelope": [("ok_fraction", ("ok_ci_low", "ok_ci_high")), ("genie_ok_fraction", ("genie_ok_ci_low", "genie_ok_ci_high")),
+                 ("stripe_snr_db", None)],
 }
 
 

@@ -11,10 +11,10 @@ override the file)::
     zip:                            # keys varied together (optional)
       link.clock_hz: 4000,8000
       link.payload_bits: 19,38
-    stage: simulate                 # analytic | simulate | run
+    stage: simulate                 # analytic | simulate | run | envelope
     runs: 1000                      # simulate: runs per cell
     channel: mmbp                   # simulate: mmbp | timed | camcomsim
-    frames: 100                     # run: frames per cell
+    frames: 100                     # run, envelope: frames per cell
     seed: 7                         # default: the scene's seed
     keep_frames: false              # run: also write each cell's PNG frames
 
@@ -31,7 +31,7 @@ from rollsim.version import __version__
 from rollsim.errors import RollsimError, SceneError, clip
 from rollsim.sweeps.grid import Axis, Cell, build_cells, grid_axis, zip_axis
 
-STAGES = ("analytic", "simulate", "run")
+STAGES = ("analytic", "simulate", "run", "envelope")
 CHANNELS = ("mmbp", "timed", "camcomsim")
 DEFAULTS: dict[str, Any] = {"runs": 1000, "frames": 100, "channel": "mmbp", "max_emissions": 50_000, "keep_frames": False}
 _FILE_KEYS = {"scene", "set", "grid", "zip", "stage", "seed", *DEFAULTS}
@@ -51,7 +51,7 @@ class SweepSpec:
         Swept keys and their values (text or list), in order.
     zipped : tuple of (str, VALUES)
         Keys varied together.
-    stage : {"analytic", "simulate", "run"}
+    stage : {"analytic", "simulate", "run", "envelope"}
     seed : int or None
         Sweep seed; None means the base scene's.
     runs, frames, channel, max_emissions, keep_frames
@@ -90,6 +90,8 @@ class SweepSpec:
             return {"runs": self.runs, "channel": self.channel, "max_emissions": self.max_emissions}
         if self.stage == "run":
             return {"frames": self.frames, "keep_frames": self.keep_frames}
+        if self.stage == "envelope":
+            return {"frames": self.frames}
         return {}
 
     def as_dict(self, sweep_seed: int) -> dict:
@@ -238,8 +240,8 @@ class ResolvedSweep:
     cells: list
 
     def cell_values(self, cell: Cell) -> dict:
-        """A cell's overrides after the base ``--set``: its values, its seed (and frames for ``run``)."""
-        extra = {"frames": self.spec.frames} if self.spec.stage == "run" else {}
+        """A cell's overrides after the base ``--set``: its values, its seed (and frames for ``run`` and ``envelope``)."""
+        extra = {"frames": self.spec.frames} if self.spec.stage in ("run", "envelope") else {}
         return {**cell.values, "seed": cell.seed(self.seed), **extra}
 
 

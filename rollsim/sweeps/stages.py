@@ -15,6 +15,12 @@ flat row of figures, with units in the column names:
     The pixel pipeline in memory (render → decode → evaluate, frame by
     frame), the MMBP fit of the outcomes, and the goodput of the scene's
     strategy replayed over the outcome trace.
+``envelope``
+    The same frames read by rollsim's decoder and by the genie-aided
+    reference receiver (:mod:`rollsim.genie`): each one's ok fraction of the
+    fully visible PHY-SDUs with its 95 % Wilson interval, and where the cell
+    sits (exposure in chips, rows per chip, stripe SNR, LED level over the
+    background, ON level in full wells: :func:`envelope_physics`).
 
 :func:`compute_cells` is what a worker runs: it validates each cell's scene
 again from the base scene's data (small to send) and never raises: a cell
@@ -51,7 +57,20 @@ RUN_COLUMNS = (
     "M_physics", "N_physics", "goodput_replayed_bps", "replay_trace_rounds", "goodput_predicted_bps", "fit_error",
     "message_decodable", "message_ok", "goodput_received_bps", "render_s", "decode_s",
 )
-STAGE_COLUMNS = {"analytic": ANALYTIC_COLUMNS, "simulate": SIMULATE_COLUMNS, "run": RUN_COLUMNS}
+# Where a cell sits (envelope_physics), then each receiver's outcomes.
+ENVELOPE_PHYSICS_COLUMNS = (
+    "exposure_chips", "rows_per_chip", "stripe_snr_db", "stripe_snr_peak_db", "led_to_background", "on_full_wells",
+)
+RECEIVER_COLUMNS = (
+    "ok", "corrupted", "missed", "undetected_error", "ok_fraction", "ok_ci_low", "ok_ci_high", "false_decodes",
+    "false_decodes_passed",
+)
+ENVELOPE_COLUMNS = (
+    "frames", "emissions", "fully_visible", *ENVELOPE_PHYSICS_COLUMNS, *RECEIVER_COLUMNS,
+    *(f"genie_{name}" for name in RECEIVER_COLUMNS), "render_s", "decode_s", "genie_s",
+)
+STAGE_COLUMNS = {"analytic": ANALYTIC_COLUMNS, "simulate": SIMULATE_COLUMNS, "run": RUN_COLUMNS,
+                 "envelope": ENVELOPE_COLUMNS}
 
 
 def _packets(scene: Scene) -> int:
@@ -168,7 +187,120 @@ def _write_frames(run, scene: Scene, frames_dir: Path) -> None:
                 truth.write(json.dumps(frame.truth, separators=(",", ":")) + "\n")
 
 
-ROW_FUNCTIONS = {"analytic": analytic_row, "simulate": simulate_row, "run": run_row}
+def _db(ratio: float) -> Optional[float]:
+    """20·log10 of an amplitude ratio; None where it is 0 (no signal)."""
+    return 20.0 * math.log10(ratio) if ratio > 0 else None
+
+
+def envelope_physics(setup, led_rows) -> dict:
+    """Where a scene sits in the decoder's operating envelope, from its physics.
+
+    Parameters
+    ----------
+    setup : SceneSetup
+        The prepared setup (``RenderPipeline(scene).setup``).
+    led_rows : (int, int) or None
+        The LED's rows of a frame (the truth's ``led_rows``).
+
+    Returns
+    -------
+    dict
+        ``exposure_chips`` (exposure over the chip duration), ``rows_per_chip``
+        (chip duration over the row time), ``stripe_snr_db``: 20·log10 of the
+        ON–OFF gap of a row mean over the noise σ of that mean, the median
+        over ``led_rows`` (``stripe_snr_peak_db``: the best row). The row mean
+        is the ideal (matched-filter) one the genie reads, whose SNR² is
+        Σ_j g_j²/v_j over the row's pixels (g_j the gap up to the clip, v_j
+        the noise variance at mid level, electrons:
+        :func:`rollsim.effects.readable.stripe_gap_and_variance`, as
+        :func:`rollsim.genie.pixel_model` uses them). ``led_to_background``:
+        the LED's time-averaged light in the pixels of its body (half the
+        ON–OFF gap: Manchester is ON half the time) over the background's
+        level, electrons (None without ambient light). ``on_full_wells``: the
+        brightest pixel's ON level (unclipped electrons) in full wells.
+    """
+    import numpy as np
+
+    from rollsim.effects.readable import row_stripe_snr, stripe_gap_and_variance
+
+    scene, cam = setup.scene, setup.scene.camera
+    chip_s = 1.0 / scene.link.clock_hz
+    row = {"exposure_chips": cam.exposure_s / chip_s, "rows_per_chip": chip_s / cam.row_time_s}
+    light = (setup.led_light if setup.led_light is not None else setup.footprint).dense(setup.shape)
+    covered = setup.footprint.dense(setup.shape)
+    gap_e, variance_e2 = stripe_gap_and_variance(light, covered, setup)
+    snr = row_stripe_snr(gap_e, variance_e2)
+    rows = snr[led_rows[0]:led_rows[1] + 1] if led_rows else snr[:0]
+    row["stripe_snr_db"] = _db(float(np.median(rows))) if rows.size else None
+    row["stripe_snr_peak_db"] = _db(float(np.max(rows))) if rows.size else None
+    on_gap_e = light * (setup.led_e_per_s * cam.exposure_s)
+    background_e = setup.background_e_per_s * cam.exposure_s if "ambient" in scene.effects.enabled() else 0.0
+    body = covered >= 0.5
+    led_mean_e = 0.5 * float(np.mean(on_gap_e[body])) if body.any() else 0.0
+    row["led_to_background"] = led_mean_e / background_e if background_e > 0 else None
+    off_e = np.zeros(setup.shape)
+    if background_e > 0:
+        off_e += (setup.background_e_per_s * (1.0 - covered) + setup.face_e_per_s * covered) * cam.exposure_s
+    row["on_full_wells"] = float(np.max(off_e + on_gap_e)) / cam.full_well_e
+    return row
+
+
+def receiver_figures(summary: dict, false_decodes: list, prefix: str = "") -> dict:
+    """One receiver's outcomes among the fully visible PHY-SDUs, with the ok fraction's 95 % Wilson interval.
+
+    Parameters
+    ----------
+    summary : dict
+        :func:`rollsim.evaluate.summarise` of its records.
+    false_decodes : list of dict
+        Its records that match no emission.
+    prefix : str
+        Put before every column name (``"genie_"``).
+    """
+    from rollsim.calibrate import wilson_interval
+
+    counts, fully = summary["fully_visible_counts"], summary["fully_visible"]
+    low, high = wilson_interval(counts["ok"], fully) if fully else (None, None)
+    row = {name: counts[name] for name in ("ok", "corrupted", "missed", "undetected_error")}
+    row.update(ok_fraction=counts["ok"] / fully if fully else None, ok_ci_low=low, ok_ci_high=high,
+               false_decodes=len(false_decodes),
+               false_decodes_passed=sum(1 for d in false_decodes if d.get("check_ok", False)))
+    return {prefix + name: value for name, value in row.items()}
+
+
+def envelope_row(scene: Scene, options: dict) -> dict:
+    """rollsim's decoder and the genie-aided receiver on the same frames of one scene.
+
+    ``scene.frames`` frames are rendered in memory; each is decoded by
+    :mod:`decoder` (:class:`rollsim.stream.DecodedRun`) and by
+    :func:`rollsim.genie.genie_decode`, and both record sets are evaluated
+    against the same truth. Columns: :data:`ENVELOPE_COLUMNS`.
+    """
+    from rollsim.evaluate import evaluate
+    from rollsim.genie import genie_decode
+    from rollsim.render import RenderPipeline
+    from rollsim.stream import DecodedRun
+
+    run = DecodedRun(RenderPipeline(scene))
+    setup = run.pipeline.setup
+    genie_records: list[dict] = []
+    genie_s = 0.0
+    for index in range(scene.frames):
+        frame = run.step(index)
+        start = time.perf_counter()
+        genie_records.extend(genie_decode(frame.image, frame.truth, setup))
+        genie_s += time.perf_counter() - start
+    decoded = run.evaluation()
+    genie = evaluate(run.truth, genie_records, setup.transmitter)
+    led_rows = next((t["led_rows"] for t in run.truth if t.get("led_rows")), None)
+    return {"frames": scene.frames, "emissions": decoded.summary["emissions"],
+            "fully_visible": decoded.summary["fully_visible"], **envelope_physics(setup, led_rows),
+            **receiver_figures(decoded.summary, decoded.false_decodes),
+            **receiver_figures(genie.summary, genie.false_decodes, "genie_"),
+            "render_s": float(sum(run.render_s)), "decode_s": float(sum(run.decode_s)), "genie_s": genie_s}
+
+
+ROW_FUNCTIONS = {"analytic": analytic_row, "simulate": simulate_row, "run": run_row, "envelope": envelope_row}
 
 
 def _finite_or_none(value):
