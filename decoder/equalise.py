@@ -49,10 +49,11 @@ PITCH_STEPS = 9
 LEVEL_PASSES = 3
 # Longest exposure (chips) handled: 2^(L−1) states with L = ⌈E/P⌉ + 1.
 MAX_EXPOSURE_CHIPS = 6.0
-# A row is read when its fitted ON–OFF gap is at least this many noise
-# sigmas of one row mean (the residual of the fit). Lower than the
-# threshold binariser's 8: the detector weighs every row a chip touches.
-MIN_MODULATION_SIGMA = 4.0
+# A row is read when the fitted stripes stand this many noise sigmas out of
+# the fit's residual (modulation_sigmas). Profiles of Gaussian noise reach
+# at most 2.3 (140 profiles of 1080 rows, 1.5 to 10 rows per chip, 0.3 to 6
+# chips of exposure).
+MIN_MODULATION_SIGMA = 3.0
 # The stripes' significance is measured over this many chips: long enough
 # that a stretch the smear flattens (0101… seen through two chips) lies
 # between chips that show.
@@ -404,12 +405,16 @@ class Equalised:
         Fitted levels (profile units).
     sigma : float
         Noise of one row mean, from the residuals.
+    modulation : ndarray of float64, shape (n_rows,)
+        How far the fitted stripes stand out of the noise
+        (:func:`modulation_sigmas`); ``valid`` is where it passes the threshold.
     """
 
     chips: ChipStream
     valid: np.ndarray
     levels: Levels
     sigma: float
+    modulation: np.ndarray
 
 
 def detect_chips(values: np.ndarray, phy: PhyFormat, rows_per_chip: float, exposure_rows: float, window_rows: int | None = None,
@@ -500,7 +505,8 @@ def _equalised(values, chips, grid: ChipGrid, layout, levels, exposure_rows: flo
     residual = values - model
     sigma = max(robust_sigma(residual), 1e-12)
     window = 2 * int(MODULATION_WINDOW_CHIPS * grid.rows_per_chip // 2) + 1
-    valid = modulation_sigmas(model, window, grid.rows_per_chip, sigma) > min_modulation_sigma
+    modulation = modulation_sigmas(model, window, grid.rows_per_chip, sigma)
+    valid = modulation > min_modulation_sigma
     memory = weights.shape[1]
     index = np.clip(last_chip[:, None] - memory + 1 + np.arange(memory), 0, grid.n_chips - 1)
     # A chip is read if some valid row sees a good share of it.
@@ -518,4 +524,4 @@ def _equalised(values, chips, grid: ChipGrid, layout, levels, exposure_rows: flo
     confidence[~read] = 0.0
     edges = grid.edges()
     stream = ChipStream(values_out, edges[:-1], edges[1:], confidence, np.ones(grid.n_chips, dtype=bool))
-    return Equalised(stream, valid, levels, sigma)
+    return Equalised(stream, valid, levels, sigma, modulation)

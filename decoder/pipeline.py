@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, Iterable, Iterator
 
 import cv2
@@ -24,7 +25,7 @@ from decoder.equalise import detect_chips
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
-from decoder.profile import RowProfile, row_profile
+from decoder.profile import RowProfile, row_profile, stripe_weighted_profile
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
 from decoder.region import block_means, choose_factor, detect_regions
 from decoder.timing import (
@@ -182,8 +183,11 @@ def led_edges(runs: Runs, levels: Binarized, pitch: float):
 
 
 # Exposures longer than this many chips are decoded by sequence detection
-# (decoder.equalise): thresholding reads isolated chips up to about 1.4.
-LONG_EXPOSURE_CHIPS = 1.0
+# (decoder.equalise) only: thresholding reads isolated chips up to about
+# 1.4 chips but from about one chip on it corrupts many (43 % ok at exactly
+# one chip on paper-default). Shorter exposures are thresholded first and
+# detected again where that left a candidate failed or found none.
+LONG_EXPOSURE_CHIPS = 0.9
 
 
 def equalised_chips(profile: RowProfile, phy: PhyFormat, rows_per_chip: float, exposure_rows: float):
@@ -267,10 +271,49 @@ def decode_profile(
     return _decode_profile_levels(profile, phy, rows_per_chip, **options)[0]
 
 
+def _thresholded_candidates(runs: Runs, levels: Binarized, pitch: float, phy: PhyFormat):
+    """PHY-SDU candidates of thresholded levels, and the rows the LED is surely seen in; (None, None) if never."""
+    edges = led_edges(runs, levels, pitch)
+    if edges is None:
+        return None, None
+    cut_left, cut_right, span = edges
+    return decode_chip_stream(runs_to_chips(runs, pitch, levels.q, cut_left, cut_right), phy, span), span
+
+
+def _passed(found) -> int:
+    """Candidates whose check passed (0 for none)."""
+    return 0 if found is None else int(np.count_nonzero(found.check_ok))
+
+
+def _all_read(found) -> bool:
+    """Whether every candidate inside the LED's rows passed, and there is one."""
+    if found is None or not found.check_ok.any():
+        return False
+    return bool(np.all(found.check_ok | (found.status == TRUNCATED)))
+
+
+def _worth_a_second_look(found, n_rows: int, sdu_rows: float) -> bool:
+    """Whether thresholding left PHY-SDUs of a profile unread.
+
+    A profile too short for a whole PHY-SDU has none to read. Otherwise: a
+    candidate failed, or fewer passed than surely fit in its rows (⌊n/S⌋ − 1
+    for PHY-SDUs S rows long: weak stripes are erased, not failed).
+    """
+    whole = int(n_rows // sdu_rows)
+    if whole < 1:
+        return False
+    return not _all_read(found) or _passed(found) < whole - 1
+
+
 def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, include_failed, include_truncated,
-                           min_contrast, exposure_rows=None) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
+                           min_contrast, exposure_rows=None,
+                           weighted=None) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
     """:func:`decode_profile`, the levels it binarised (None when it found no chip pitch), and
-    the first and last frame row where it surely saw the LED's stripes (None if nowhere)."""
+    the first and last frame row where it surely saw the LED's stripes (None if nowhere).
+
+    ``weighted``, if given, returns the same rows' stripe-weighted profile
+    (:func:`decoder.profile.stripe_weighted_profile`, or None) for the
+    sequence detector; it is called only when the detector runs."""
     # A region too short for a PHY-SDU may still show stripes (the LED's
     # rows are measured even where no PHY-SDU fits); fewer rows than the
     # shortest run pattern cannot.
@@ -280,18 +323,20 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
         return [], None, None
     levels, runs = binarise_at_pitch(profile, phy, pitch, min_contrast)
-    if exposure_rows is not None and exposure_rows > LONG_EXPOSURE_CHIPS * pitch:
-        chips, span = equalised_chips(profile, phy, pitch, exposure_rows)
-    else:
-        edges = led_edges(runs, levels, pitch)
-        if edges is None:
-            return [], levels, None
-        cut_left, cut_right, span = edges
-        chips = runs_to_chips(runs, pitch, levels.q, cut_left, cut_right)
-    if span is None:
+    long_exposure = exposure_rows is not None and exposure_rows > LONG_EXPOSURE_CHIPS * pitch
+    found, span = (None, None) if long_exposure else _thresholded_candidates(runs, levels, pitch, phy)
+    if exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), phy.sdu_chips * pitch)):
+        # A second look, by sequence detection over the known smear: it
+        # reads what thresholding cannot (weak stripes, a long exposure);
+        # the reading with more PHY-SDUs whose check passed is kept.
+        detect = (weighted() if weighted is not None else None) or profile
+        chips, second_span = equalised_chips(detect, phy, pitch, exposure_rows)
+        second = None if second_span is None else decode_chip_stream(chips, phy, second_span)
+        if long_exposure or _passed(second) > _passed(found):
+            found, span = second, second_span
+    if found is None or span is None:
         return [], levels, None
     seen = (profile.first_row + int(round(span[0])), profile.first_row + int(round(span[1])))
-    found = decode_chip_stream(chips, phy, span)
     keep = found.status != TRUNCATED if not include_truncated else np.ones(len(found), dtype=bool)
     if not include_failed:
         keep &= found.check_ok
@@ -381,8 +426,10 @@ def decode_frame(
     options: dict[str, Any] = {"include_failed": include_failed, "include_truncated": include_truncated,
                                "min_contrast": min_contrast, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     decoded: list[DecodedPhySdu] = []
-    for index, (_, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
-        decoded.extend(decode_profile(profile, phy, pitch, frame_index=frame_index, region=index, **options))
+    for index, (_, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
+                                                                           max_regions)):
+        decoded.extend(_decode_profile_levels(profile, phy, pitch, frame_index=frame_index, region=index,
+                                              weighted=weighted, **options)[0])
     return decoded
 
 
@@ -396,7 +443,10 @@ def exposure_rows(exposure_s: float | None, row_time_s: float | None) -> float |
 
 
 def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int):
-    """Yield ``(frame columns, row profile, nominal rows per chip or None)`` per LED region."""
+    """Yield ``(frame columns, row profile, nominal rows per chip or None, stripe-weighted profile)`` per LED region.
+
+    The last is a callable giving :func:`decoder.profile.stripe_weighted_profile`
+    (None without a chip pitch), computed only if asked for."""
     frame = as_frame_array(image)
     pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz is not None and row_time_s is not None else None
     blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
@@ -409,7 +459,8 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
         if pitch is not None:
             regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch)
     for region in regions:
-        yield blocks.block_col_span(region.block_cols), row_profile(blocks, region), pitch
+        weighted = None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch)
+        yield blocks.block_col_span(region.block_cols), row_profile(blocks, region), pitch, weighted
 
 
 def frame_rows_per_chip(profiles: Iterable[RowProfile], phy: PhyFormat) -> float | None:
@@ -467,8 +518,9 @@ def inspect_frame(
     options = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
                "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     views = []
-    for index, (cols, profile, pitch) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions)):
-        sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, **options)
+    for index, (cols, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
+                                                                              max_regions)):
+        sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted, **options)
         rows = slice(profile.first_row, profile.first_row + len(profile))
         views.append(RegionView(rows, cols, profile, None if levels is None else levels.threshold, tuple(sdus), seen))
     return views

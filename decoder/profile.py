@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from decoder.region import BlockImage, Region, horizontal_noise
+from decoder.region import COMMON_BAND_BLOCKS, BlockImage, Region, common_stripes_z, horizontal_noise
 
 # Quantisation noise of the column-block means of an integer frame (DN):
 # they are rounded to integers, a uniform error of sigma 1/sqrt(12).
@@ -112,3 +112,47 @@ def row_profile(image: BlockImage, region: Region) -> RowProfile:
     scores = [stripe_contrast(values[:, c], noise[:, c]) for c in range(values.shape[1])]
     best = int(np.argmax(scores))
     return RowProfile(region.rows.start, values[:, best], noise[:, best], best)
+
+
+# Bands whose shared-stripes z-score is below this get no weight.
+MIN_BAND_Z = 1.0
+
+
+def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: float) -> RowProfile | None:
+    """The region's row profile with its column bands weighted by their stripes.
+
+    A plain mean over the region gives every column the same weight, also
+    those where the LED is faint or absent (a disk's sides, a region that
+    spans the frame): they add noise and no stripes. Here each band of
+    columns (:data:`~decoder.region.COMMON_BAND_BLOCKS` blocks) is weighted,
+    row by row, by how strongly it shares the other bands' stripes
+    (:func:`~decoder.region.common_stripes_z`, less :data:`MIN_BAND_Z`): an
+    estimate of the matched filter across columns. The level of a row then
+    depends on which bands carry it, slowly along the profile; a detector
+    that fits its levels along the profile (:mod:`decoder.equalise`) reads
+    it, thresholding need not.
+
+    Returns
+    -------
+    RowProfile or None
+        None when fewer than three bands fit in the region or none shows
+        stripes.
+    """
+    cols = image.block_col_span(region.block_cols)
+    crop = image.frame[region.rows, cols].astype(np.float32, copy=False)
+    if crop.ndim == 3:
+        crop = crop.mean(axis=2)
+    band_px = COMMON_BAND_BLOCKS * image.factor
+    n_bands = crop.shape[1] // band_px
+    if n_bands < 3:
+        return None
+    bands = crop[:, : n_bands * band_px].reshape(crop.shape[0], n_bands, band_px).mean(axis=2, dtype=np.float64)
+    weights = np.clip(common_stripes_z(bands, rows_per_chip) - MIN_BAND_Z, 0.0, None)
+    total = weights.sum(axis=1)
+    if not np.any(total > 0):
+        return None
+    plain = bands.mean(axis=1)
+    values = np.where(total > 0, np.sum(weights * bands, axis=1) / np.where(total > 0, total, 1.0), plain)
+    sigma = max(horizontal_noise(crop), INTEGER_NOISE_FLOOR if image.integer else 1e-6)
+    effective = np.where(total > 0, total**2 / np.maximum(np.sum(weights**2, axis=1), 1e-300), n_bands) * band_px
+    return RowProfile(region.rows.start, values, sigma / np.sqrt(effective), None)

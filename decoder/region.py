@@ -463,8 +463,9 @@ def common_stripes_z(profiles: np.ndarray, rows_per_chip: float) -> np.ndarray:
         # Zeros beyond the frame's ends (not repeated edge rows): the rows a
         # window really holds set its z-score.
         cross = uniform_filter1d(high * others, window, axis=0, mode="constant")
-        own = uniform_filter1d(high * high, window, axis=0, mode="constant")
-        ref = uniform_filter1d(others * others, window, axis=0, mode="constant")
+        # Running sums of squares can round a hair below zero.
+        own = np.maximum(uniform_filter1d(high * high, window, axis=0, mode="constant"), 0.0)
+        ref = np.maximum(uniform_filter1d(others * others, window, axis=0, mode="constant"), 0.0)
         denominator = np.sqrt(own * ref)
         correlation = np.divide(cross, denominator, out=np.zeros_like(cross), where=denominator > 0)
         z = correlation * np.sqrt(held)[:, None]
