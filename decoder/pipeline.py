@@ -190,21 +190,29 @@ def led_edges(runs: Runs, levels: Binarized, pitch: float):
 LONG_EXPOSURE_CHIPS = 0.9
 
 
+# A chip decided ON with at least this confidence (its least-squares value,
+# 1 = on the ON level, 0 = at the midpoint) surely shows the LED.
+CONFIDENT_ON_CHIP = 0.45
+
+
 def equalised_chips(profile: RowProfile, phy: PhyFormat, rows_per_chip: float, exposure_rows: float):
     """Chips of a profile seen through a long exposure, and the rows a whole PHY-SDU must lie in.
+
+    The span runs from the first to the last chip decided ON with
+    confidence (as thresholding's runs from the first to the last confident
+    ON run, :func:`led_edges`): past the LED's last rows an OFF chip looks
+    like the background, so the chips there are not the LED's to claim.
 
     Returns
     -------
     (ChipStream, (first, last) or None)
-        The span (profile rows, widened by half the exposure: a chip is seen
-        by the rows whose exposure touches it) is None when no row is read.
+        The span (profile rows) is None when no chip is surely ON.
     """
-    found = detect_chips(profile.values, phy, rows_per_chip, exposure_rows)
-    rows = np.flatnonzero(found.valid)
-    if rows.size == 0:
-        return found.chips, None
-    half = 0.5 * exposure_rows
-    return found.chips, (rows[0] - half - SPAN_TOLERANCE_ROWS, rows[-1] + half + SPAN_TOLERANCE_ROWS)
+    chips = detect_chips(profile.values, phy, rows_per_chip, exposure_rows).chips
+    on = np.flatnonzero((chips.values == 1) & (chips.confidence >= CONFIDENT_ON_CHIP))
+    if on.size == 0:
+        return chips, None
+    return chips, (chips.start[on[0]] - SPAN_TOLERANCE_ROWS, chips.end[on[-1]] + SPAN_TOLERANCE_ROWS)
 
 
 # Row noise, as a fraction of the stripe contrast, above which the profile is

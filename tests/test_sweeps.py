@@ -179,7 +179,14 @@ def test_run_stage_3x2_decodes_and_fits_the_physics(tmp_path, client):
         assert (r["M"], r["N"]) == (r["M_physics"], r["N_physics"])
         assert r["p_e_ci_low"] <= r["p_e"] <= r["p_e_ci_high"]
     far = [r for r in rows if r["link.distance_cm"] == 20]
-    assert all(r["fully_visible"] == 0 and r["M"] is None and "no success" in r["fit_error"] for r in far)
+    # No PHY-SDU is fully visible at 20 cm. The decoder may still read one
+    # whose last chip only its last row partly saw (its sequence detection
+    # weighs that share): an ok outcome outside the fully visible ones, never
+    # a wrong one. Without any, the fit has no success to go on.
+    assert all(r["fully_visible"] == 0 and r["M_physics"] == 0 for r in far)
+    assert all(r["false_decodes"] == 0 and r["undetected_error"] == 0 and r["corrupted"] == 0 for r in far)
+    assert all("no success" in r["fit_error"] for r in far if r["ok"] == 0)
+    assert any(r["ok"] == 0 for r in far)
     assert near[0]["goodput_replayed_bps"] > 0
 
 
