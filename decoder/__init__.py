@@ -7,8 +7,10 @@ Stages, one module each: :mod:`decoder.io` (reading frames),
 :mod:`decoder.region` (LED footprints), :mod:`decoder.profile` (row means),
 :mod:`decoder.binarize` (local threshold and erasures), :mod:`decoder.timing`
 (clock recovery), :mod:`decoder.framing` (SYNC, line code, check) and
-:mod:`decoder.pipeline` (the whole chain); :mod:`decoder.rowtime`
-calibrates the row time from square-wave frames.
+:mod:`decoder.pipeline` (the whole chain); :mod:`decoder.equalise` detects
+chip sequences through an exposure longer than a chip (or where
+thresholding left PHY-SDUs unread); :mod:`decoder.rowtime` calibrates the
+row time from square-wave frames.
 """
 
 from decoder.io import MAX_FRAME_PIXELS, FrameError, FrameReadError, as_frame_array, png_header, read_frame

@@ -15,16 +15,22 @@ most likely chip sequence is found exactly by the Viterbi algorithm over
 the 2^(L−1) states of the last L − 1 chips (maximum-likelihood sequence
 detection, Gaussian noise on the row means).
 
-What the frame does not say is estimated: the grid's phase φ (every phase
-on a grid of :data:`PHASES` per chip is tried, all at once, and the one
-whose best sequence fits the profile best wins), and the levels off and gap,
-which drift along a footprint (vignetting, the chord, glare). They start
-from the profile's local envelopes and are then refitted, by local least
-squares on the decided chips, :data:`LEVEL_PASSES` times.
+What the frame does not say is estimated:
 
-Rows where the fitted gap does not stand out of the noise are erasures: the
-detector never lays chips there (noise alone would always give it *some*
-best sequence).
+* the grid's phase φ: every phase on a grid of :data:`PHASES` per chip is
+  tried, all at once, and the one whose best sequence fits best wins; then
+  pitches within ±:data:`PITCH_SPAN` of the nominal one, anchored
+  mid-profile (a row time slightly off drifts the grid);
+* the levels, y = min(ceiling, off + gap·s + bend·s(1 − s)) (:class:`Levels`):
+  off, gap and bend are P-splines along the profile (vignetting, the chord,
+  glare; saturation bends and clips the curve), first guessed from the
+  profile's running mean and deviation and the line code's smeared
+  statistics (:func:`code_statistics`), then refitted by least squares on
+  the decided chips, :data:`LEVEL_PASSES` times.
+
+Rows where the fitted stripes do not stand out of the residual noise
+(:func:`modulation_sigmas`) are erasures: the detector never lays chips
+there (noise alone would always give it *some* best sequence).
 """
 
 from __future__ import annotations
