@@ -12,11 +12,13 @@ Two kinds of scene:
   (one parameter set). The truth counts a PHY-SDU as fully visible in the
   rows an ideal receiver reads (:mod:`rollsim.effects.readable`), which reach
   further into the halo than the decoder's (0.89 of the frame against 0.73
-  at 10 cm), so the decoder misses PHY-SDUs there, and at 5 cm a few are
-  corrupted by the saturated centre (5.4 full scales at its peak). The floors
-  below are under what 24 frames measured (95 % and 93 % at 5 cm, 76 % and
-  75 % at 10 cm, parity2 and CRC-8), to catch a regression; nothing may be
-  decoded falsely or pass its check wrongly.
+  at 10 cm), so the decoder misses PHY-SDUs there. At 5 cm thresholding
+  corrupted a few in the saturated centre (5.4 full scales at its peak);
+  told the exposure, the decoder reads them again by sequence detection
+  (``decoder.equalise``). The floors below are under what 24 frames measured
+  (97.5 % and 98.4 % at 5 cm, 0 corrupted; 95 % and 93 % before the second
+  look; 76 % and 69 % at 10 cm, parity2 and CRC-8), to catch a regression;
+  nothing may be decoded falsely or pass its check wrongly.
 """
 
 import pytest
@@ -24,7 +26,7 @@ import pytest
 from rollsim.stream import scene_outcomes
 from rollsim.scene import load_scene
 
-FLOORS = {"paper-geometric": 0.995, "paper-default": 0.88, "paper-10cm": 0.65}
+FLOORS = {"paper-geometric": 0.995, "paper-default": 0.93, "paper-10cm": 0.65}
 
 
 def check_paper_outcomes(name: str, summary: dict) -> None:
