@@ -406,7 +406,7 @@ class Equalised:
     ----------
     chips : ChipStream
     valid : ndarray of bool, shape (n_rows,)
-        Rows whose fitted gap stands out of the noise.
+        Rows whose fitted stripes stand out of the noise (:func:`modulation_sigmas`).
     levels : Levels
         Fitted levels (profile units).
     sigma : float
@@ -441,7 +441,8 @@ def detect_chips(values: np.ndarray, phy: PhyFormat, rows_per_chip: float, expos
         Window of the envelopes the levels start from; default
         :data:`ENVELOPE_CHIPS` chips.
     min_modulation_sigma : float
-        Rows whose fitted gap is below this many residual sigmas are erased.
+        Rows whose fitted stripes stand less than this many residual sigmas out
+        of the noise (:func:`modulation_sigmas`) are erased.
 
     Returns
     -------

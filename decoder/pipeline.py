@@ -21,7 +21,7 @@ from rollsim.protocol.linecode import chips_per_symbol
 from rollsim.protocol.frames import frame_index_from_name
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
-from decoder.equalise import detect_chips
+from decoder.equalise import MAX_EXPOSURE_CHIPS, detect_chips
 from decoder.framing import OK, TRUNCATED, decode_chip_stream
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
@@ -331,6 +331,10 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
         return [], None, None
     levels, runs = binarise_at_pitch(profile, phy, pitch, min_contrast)
+    if exposure_rows is not None and exposure_rows > MAX_EXPOSURE_CHIPS * pitch:
+        # Longer than the detector's memory allows: thresholding alone
+        # (which reads nothing there, but fails no frame).
+        exposure_rows = None
     long_exposure = exposure_rows is not None and exposure_rows > LONG_EXPOSURE_CHIPS * pitch
     found, span = (None, None) if long_exposure else _thresholded_candidates(runs, levels, pitch, phy)
     if exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), phy.sdu_chips * pitch)):

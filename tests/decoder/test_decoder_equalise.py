@@ -106,6 +106,7 @@ def test_other_formats_at_three_chips(phy):
     profile, truth, exposure_rows = smeared_profile(3.0, 4.5, noise_fraction=0.01, phy=phy)
     found = decode_profile(profile, phy, 4.5, exposure_rows=exposure_rows)
     inner = [t for t in truth if t["first_row_f"] > exposure_rows and t["last_row_f"] < len(profile) - exposure_rows]
+    assert len(inner) >= 1
     assert {(t["sequence"], t["bits"]) for t in inner} <= {(s.sequence, s.bits) for s in found if s.check_ok}
 
 
@@ -131,6 +132,7 @@ def test_clipped_rows_follow_the_ceiling():
     clipped = RowProfile(0, np.minimum(profile.values, top), profile.noise)
     found = decode_profile(clipped, PHY, 4.5, exposure_rows=exposure_rows)
     inner = [t for t in truth if t["first_row_f"] > exposure_rows and t["last_row_f"] < len(profile) - exposure_rows]
+    assert len(inner) >= 2
     assert {(t["sequence"], t["bits"]) for t in inner} <= {(s.sequence, s.bits) for s in found if s.check_ok}
 
 
@@ -148,6 +150,14 @@ def test_levels_model_is_clipped_and_bent():
 def test_bad_parameters_are_refused(rows_per_chip, exposure_rows, field):
     with pytest.raises(ValueError, match=field):
         detect_chips(np.zeros(100), PHY, rows_per_chip, exposure_rows)
+
+
+def test_an_exposure_beyond_the_detectors_reach_is_thresholded():
+    # Seven chips: more than MAX_EXPOSURE_CHIPS; the frame is decoded (by
+    # thresholding, which reads nothing there) instead of failing.
+    profile, _, exposure_rows = smeared_profile(7.0, 4.5, noise_fraction=0.01)
+    assert exposure_rows > 6 * 4.5
+    assert [s for s in decode_profile(profile, PHY, 4.5, exposure_rows=exposure_rows) if s.check_ok] == []
 
 
 def test_decode_frame_refuses_a_bad_exposure():
