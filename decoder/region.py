@@ -475,6 +475,38 @@ def common_stripes_z(profiles: np.ndarray, rows_per_chip: float) -> np.ndarray:
     return z
 
 
+# The common signal's power density below the chip rate must be this many
+# times its density above it (white row noise: about 1).
+MIN_STRIPE_SPECTRUM_RATIO = 3.0
+
+
+def has_stripe_spectrum(profiles: np.ndarray, weights: np.ndarray, rows_per_chip: float) -> bool:
+    """Whether the signal the bands share looks like chips, not like row noise.
+
+    Row noise (an offset per row, the same in every column) is shared by the
+    bands as an LED's stripes are, but it is white: its power reaches the
+    Nyquist frequency evenly. Chips of P rows put theirs below 1/P cycles
+    per row (a box of P rows has its first null there), and the exposure
+    smooths them further. So the weighted common signal's mean power density
+    between 1/(2P) and 1/P must exceed its density above 1.25/P by
+    :data:`MIN_STRIPE_SPECTRUM_RATIO`. With fewer than 2.5 rows per chip the
+    bands overlap and the test cannot tell; it passes.
+    """
+    if rows_per_chip < 2.5:
+        return True
+    if not np.any(weights > 0):
+        return False
+    window = max(3, int(COMMON_HIGHPASS_CHIPS * rows_per_chip))
+    common = (profiles - uniform_filter1d(profiles, window, axis=0, mode="nearest")) @ weights
+    power = np.abs(np.fft.rfft(common)) ** 2
+    frequency = np.fft.rfftfreq(common.size)
+    low = (frequency >= 0.5 / rows_per_chip) & (frequency < 1.0 / rows_per_chip)
+    high = frequency >= 1.25 / rows_per_chip
+    if not low.any() or not high.any():
+        return True
+    return bool(np.mean(power[low]) > MIN_STRIPE_SPECTRUM_RATIO * np.mean(power[high]))
+
+
 def common_stripes_mask(image: BlockImage, rows_per_chip: float, kernel_rows: int) -> np.ndarray:
     """Blocks whose column band shows the stripes the other bands show.
 
@@ -484,9 +516,10 @@ def common_stripes_mask(image: BlockImage, rows_per_chip: float, kernel_rows: in
     closed vertically like the others.
     """
     n_block_rows, n_block_cols = image.blocks.shape[:2]
-    z = common_stripes_z(band_profiles(image), rows_per_chip)
+    profiles = band_profiles(image)
+    z = common_stripes_z(profiles, rows_per_chip)
     mask = np.zeros((n_block_rows, n_block_cols), np.uint8)
-    if z.size == 0:
+    if z.size == 0 or not has_stripe_spectrum(profiles, np.clip(np.median(z, axis=0), 0.0, None), rows_per_chip):
         return mask
     rows = np.minimum(np.arange(image.height) // image.factor, n_block_rows - 1)
     strong = np.zeros((n_block_rows, z.shape[1]))

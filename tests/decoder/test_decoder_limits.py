@@ -73,3 +73,17 @@ def test_stripe_weighted_profile_leaves_out_columns_without_stripes():
     # Only a third of the columns carry stripes: leaving the rest out gains
     # about sqrt(3) in amplitude SNR.
     assert stripe_snr(weighted.values) > 1.4 * stripe_snr(plain.values)
+
+
+@pytest.mark.parametrize("rows_per_chip", [4.5, 10.0])
+@pytest.mark.parametrize("row_sigma", [0.5, 2.0])
+def test_row_noise_is_not_taken_for_stripes(rows_per_chip, row_sigma):
+    # An offset per row, the same in every column (the row_noise effect), is
+    # shared by the bands as stripes are; its white spectrum tells it apart
+    # (without that test 0.5 DN made the whole frame one region).
+    from decoder.region import common_stripes_mask
+
+    rng = np.random.default_rng(int(10 * row_sigma + rows_per_chip))
+    frame = 40.0 + rng.normal(0.0, 3.0, (1080, 1920)) + rng.normal(0.0, row_sigma, (1080, 1))
+    image = block_means(np.clip(np.rint(frame), 0, 255).astype(np.uint8), 4)
+    assert common_stripes_mask(image, rows_per_chip, 31).sum() == 0
