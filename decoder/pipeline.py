@@ -471,8 +471,9 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
         if pitch is not None:
             regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch)
     for region in regions:
-        weighted = None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch)
-        yield blocks.block_col_span(region.block_cols), row_profile(blocks, region), pitch, weighted
+        profile = row_profile(blocks, region)
+        weighted = None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch, profile.channel)
+        yield blocks.block_col_span(region.block_cols), profile, pitch, weighted
 
 
 def frame_rows_per_chip(profiles: Iterable[RowProfile], phy: PhyFormat) -> float | None:

@@ -118,7 +118,8 @@ def row_profile(image: BlockImage, region: Region) -> RowProfile:
 MIN_BAND_Z = 1.0
 
 
-def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: float) -> RowProfile | None:
+def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: float,
+                            channel: int | None = None) -> RowProfile | None:
     """The region's row profile with its column bands weighted by their stripes.
 
     A plain mean over the region gives every column the same weight, also
@@ -132,6 +133,15 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     that fits its levels along the profile (:mod:`decoder.equalise`) reads
     it, thresholding need not.
 
+    Parameters
+    ----------
+    image : BlockImage
+    region : Region
+    rows_per_chip : float
+    channel : int, optional
+        Channel of a colour frame (:attr:`RowProfile.channel` of the plain
+        profile); the first if None.
+
     Returns
     -------
     RowProfile or None
@@ -139,9 +149,11 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
         stripes.
     """
     cols = image.block_col_span(region.block_cols)
-    crop = image.frame[region.rows, cols].astype(np.float32, copy=False)
+    crop = image.frame[region.rows, cols]
     if crop.ndim == 3:
-        crop = crop.mean(axis=2)
+        # The channel the plain profile chose (its best stripe contrast).
+        crop = crop[:, :, 0 if channel is None else channel]
+    crop = crop.astype(np.float64, copy=False)
     band_px = COMMON_BAND_BLOCKS * image.factor
     n_bands = crop.shape[1] // band_px
     if n_bands < 3:
@@ -155,4 +167,4 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     values = np.where(total > 0, np.sum(weights * bands, axis=1) / np.where(total > 0, total, 1.0), plain)
     sigma = max(horizontal_noise(crop), INTEGER_NOISE_FLOOR if image.integer else 1e-6)
     effective = np.where(total > 0, total**2 / np.maximum(np.sum(weights**2, axis=1), 1e-300), n_bands) * band_px
-    return RowProfile(region.rows.start, values, sigma / np.sqrt(effective), None)
+    return RowProfile(region.rows.start, values, sigma / np.sqrt(effective), channel)

@@ -87,3 +87,22 @@ def test_row_noise_is_not_taken_for_stripes(rows_per_chip, row_sigma):
     frame = 40.0 + rng.normal(0.0, 3.0, (1080, 1920)) + rng.normal(0.0, row_sigma, (1080, 1))
     image = block_means(np.clip(np.rint(frame), 0, 255).astype(np.uint8), 4)
     assert common_stripes_mask(image, rows_per_chip, 31).sum() == 0
+
+
+def test_stripe_weighted_profile_reads_the_chosen_channel():
+    # A red LED: the stripes are in channel 0 only; the weighted profile of
+    # that channel follows them, the green one's does not.
+    from decoder.profile import stripe_weighted_profile
+    from decoder.region import Region
+
+    rng = np.random.default_rng(6)
+    stripes = np.where((np.arange(1080) // 5) % 2 == 0, 6.0, 0.0)
+    frame = 40.0 + rng.normal(0.0, 4.0, (1080, 1920, 3))
+    frame[:, :, 0] += stripes[:, None]
+    image = block_means(np.clip(np.rint(frame), 0, 255).astype(np.uint8), 4)
+    region = Region(slice(0, 1080), slice(0, 480), np.ones((1080, 480), np.float32), 270 * 480)
+    red = stripe_weighted_profile(image, region, 5.0, channel=0)
+    assert red is not None and red.channel == 0
+    assert np.corrcoef(red.values, stripes)[0, 1] > 0.9
+    green = stripe_weighted_profile(image, region, 5.0, channel=1)
+    assert green is None or abs(np.corrcoef(green.values, stripes)[0, 1]) < 0.3
