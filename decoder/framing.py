@@ -128,3 +128,30 @@ def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float,
     )
     confidence = np.where(erased, 0.0, np.min(chips.confidence[index], axis=1))
     return SduCandidates(first_row, last_row, decoded.sequence, decoded.payload, status, confidence)
+
+
+def merge_readings(primary: SduCandidates, secondary: SduCandidates, sdu_rows: float) -> SduCandidates:
+    """Two readings of one profile as one: ``primary``'s, plus what only ``secondary`` read.
+
+    A candidate of ``secondary`` whose check passed is added where
+    ``primary`` passed none within half a PHY-SDU (``sdu_rows`` / 2 rows) of
+    it; ``primary``'s failed candidates there give way to it.
+
+    Returns
+    -------
+    SduCandidates
+        In row order.
+    """
+    if len(secondary) == 0:
+        return primary
+    if len(primary) == 0:
+        return secondary
+    distance = np.abs(secondary.first_row[:, None] - primary.first_row[None, :])
+    near = distance < 0.5 * sdu_rows
+    taken = secondary.check_ok & ~np.any(near & primary.check_ok[None, :], axis=1)
+    kept = primary.check_ok | ~np.any(near & taken[:, None], axis=0)
+    parts = [(primary, kept), (secondary, taken)]
+    fields = ("first_row", "last_row", "sequence", "payload", "status", "confidence")
+    merged = {name: np.concatenate([getattr(c, name)[m] for c, m in parts]) for name in fields}
+    order = np.argsort(merged["first_row"], kind="stable")
+    return SduCandidates(**{name: value[order] for name, value in merged.items()})

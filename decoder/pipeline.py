@@ -22,7 +22,7 @@ from rollsim.protocol.frames import frame_index_from_name
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
 from decoder.equalise import MAX_EXPOSURE_CHIPS, detect_chips
-from decoder.framing import OK, TRUNCATED, decode_chip_stream
+from decoder.framing import OK, TRUNCATED, decode_chip_stream, merge_readings
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
 from decoder.profile import RowProfile, row_profile, stripe_weighted_profile
@@ -340,12 +340,15 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     if exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), phy.sdu_chips * pitch)):
         # A second look, by sequence detection over the known smear: it
         # reads what thresholding cannot (weak stripes, a long exposure);
-        # the reading with more PHY-SDUs whose check passed is kept.
+        # what only it reads joins thresholding's reading.
         detect = (weighted() if weighted is not None else None) or profile
         chips, second_span = equalised_chips(detect, phy, pitch, exposure_rows)
         second = None if second_span is None else decode_chip_stream(chips, phy, second_span)
-        if long_exposure or _passed(second) > _passed(found):
+        if found is None or span is None:
             found, span = second, second_span
+        elif second is not None and second_span is not None:
+            found = merge_readings(found, second, phy.sdu_chips * pitch)
+            span = (min(span[0], second_span[0]), max(span[1], second_span[1]))
     if found is None or span is None:
         return [], levels, None
     seen = (profile.first_row + int(round(span[0])), profile.first_row + int(round(span[1])))

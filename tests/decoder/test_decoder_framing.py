@@ -135,3 +135,22 @@ def test_check_code_false_accept_rate_through_the_decoder(check, expected):
     sigma = np.sqrt(expected * (1 - expected) / candidates)
     print(f"{check}: {accepted} of {candidates} random codewords accepted, rate {rate:.4f} (expected {expected:.4f})")
     assert abs(rate - expected) < 4 * sigma
+
+
+def test_merged_readings_keep_both_receivers_passes_once():
+    from decoder.framing import SduCandidates, merge_readings
+
+    def candidates(rows, statuses):
+        n = len(rows)
+        rows = np.asarray(rows, dtype=np.float64)
+        return SduCandidates(rows, rows + 250.0, np.arange(n), np.zeros((n, PHY.payload_bits), np.uint8),
+                             np.asarray(statuses), np.ones(n))
+
+    # Thresholding passed the PHY-SDU at row 0 and failed the one at 250;
+    # the second look passed those at 2 (the same one), 251 and 500.
+    primary = candidates([0.0, 250.0], [OK, CODE_ERROR])
+    secondary = candidates([2.0, 251.0, 500.0], [OK, OK, OK])
+    merged = merge_readings(primary, secondary, 250.0)
+    assert merged.first_row.tolist() == [0.0, 251.0, 500.0]
+    assert merged.status.tolist() == [OK, OK, OK]
+    assert merge_readings(primary, candidates([], []), 250.0) is primary
