@@ -36,6 +36,7 @@ there (noise alone would always give it *some* best sequence).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d, uniform_filter1d
@@ -197,7 +198,10 @@ def branch_metrics(values, levels: Levels, inv_var, last_chip, weights, n_chips:
     residual = values[:, None] - levels.model(smear)
     cost = residual * residual * inv_var[:, None]
     metrics = np.zeros((n_chips, cost.shape[1]))
-    np.add.at(metrics, last_chip, cost)
+    # last_chip never decreases along the rows: sum each chip's run of rows.
+    starts = np.flatnonzero(np.concatenate([[True], last_chip[1:] != last_chip[:-1]]))
+    if starts.size:
+        metrics[last_chip[starts]] = np.add.reduceat(cost, starts, axis=0)
     return metrics
 
 
@@ -337,12 +341,14 @@ def profile_ceiling(values: np.ndarray, window_rows: int, margin: float) -> np.n
     return maximum_filter1d(values, window_rows, mode="nearest") - margin
 
 
+@lru_cache(maxsize=64)
 def code_statistics(phy: PhyFormat, exposure_rows: float, rows_per_chip: float, n_sdus: int = 64) -> tuple[float, float]:
     """Mean and standard deviation of the smeared level s of a random chip stream.
 
     PHY-SDUs of random bits (SYNC, then the line code), one after another,
     seen through the exposure on a grid of ``rows_per_chip``; from a fixed
-    generator, so the figures are deterministic.
+    generator, so the figures are deterministic (and cached: the regions
+    and frames of one decode share them).
 
     Returns
     -------
