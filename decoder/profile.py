@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from decoder.region import COMMON_BAND_BLOCKS, BlockImage, Region, common_stripes_z, horizontal_noise
+from decoder.region import COMMON_BAND_BLOCKS, BlockImage, Region, band_means, common_stripes_z, horizontal_noise
 
 # Quantisation noise of the column-block means of an integer frame (DN):
 # they are rounded to integers, a uniform error of sigma 1/sqrt(12).
@@ -158,7 +158,7 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     n_bands = crop.shape[1] // band_px
     if n_bands < 3:
         return None
-    bands = crop[:, : n_bands * band_px].reshape(crop.shape[0], n_bands, band_px).mean(axis=2, dtype=np.float64)
+    bands = band_means(crop, band_px)
     weights = np.clip(common_stripes_z(bands, rows_per_chip) - MIN_BAND_Z, 0.0, None)
     total = weights.sum(axis=1)
     if not np.any(total > 0):

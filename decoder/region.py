@@ -425,11 +425,24 @@ def band_profiles(image: BlockImage, band_blocks: int = COMMON_BAND_BLOCKS) -> n
     frame = image.frame.astype(np.float32, copy=False)
     if frame.ndim == 3:
         frame = frame.mean(axis=2)
-    band_px = band_blocks * image.factor
-    n_bands = frame.shape[1] // band_px
-    if n_bands == 0:
-        return np.zeros((frame.shape[0], 0))
-    return frame[:, : n_bands * band_px].reshape(frame.shape[0], n_bands, band_px).mean(axis=2, dtype=np.float64)
+    return band_means(frame, band_blocks * image.factor)
+
+
+def band_means(gray: np.ndarray, band_px: int) -> np.ndarray:
+    """Row means of a gray image over whole bands of ``band_px`` columns (the rest dropped).
+
+    Returns
+    -------
+    ndarray of float64, shape (rows, n_bands)
+    """
+    n_bands = gray.shape[1] // band_px
+    return gray[:, : n_bands * band_px].reshape(gray.shape[0], n_bands, band_px).mean(axis=2, dtype=np.float64)
+
+
+def stripe_highpass(profiles: np.ndarray, rows_per_chip: float) -> np.ndarray:
+    """Band profiles less their running mean over :data:`COMMON_HIGHPASS_CHIPS` chips (down the rows)."""
+    window = max(3, int(COMMON_HIGHPASS_CHIPS * rows_per_chip))
+    return profiles - uniform_filter1d(profiles, window, axis=0, mode="nearest")
 
 
 def common_stripes_z(profiles: np.ndarray, rows_per_chip: float) -> np.ndarray:
@@ -450,8 +463,7 @@ def common_stripes_z(profiles: np.ndarray, rows_per_chip: float) -> np.ndarray:
     n_rows, n_bands = profiles.shape
     if n_bands < 3 or n_rows < 8:
         return np.zeros(profiles.shape)
-    high = profiles - uniform_filter1d(profiles, max(3, int(COMMON_HIGHPASS_CHIPS * rows_per_chip)), axis=0,
-                                       mode="nearest")
+    high = stripe_highpass(profiles, rows_per_chip)
     window = max(8, int(COMMON_WINDOW_CHIPS * rows_per_chip))
     held = uniform_filter1d(np.ones(n_rows), window, mode="constant") * window
     weights = np.ones(n_bands)
@@ -496,8 +508,7 @@ def has_stripe_spectrum(profiles: np.ndarray, weights: np.ndarray, rows_per_chip
         return True
     if not np.any(weights > 0):
         return False
-    window = max(3, int(COMMON_HIGHPASS_CHIPS * rows_per_chip))
-    common = (profiles - uniform_filter1d(profiles, window, axis=0, mode="nearest")) @ weights
+    common = stripe_highpass(profiles, rows_per_chip) @ weights
     power = np.abs(np.fft.rfft(common)) ** 2
     frequency = np.fft.rfftfreq(common.size)
     low = (frequency >= 0.5 / rows_per_chip) & (frequency < 1.0 / rows_per_chip)

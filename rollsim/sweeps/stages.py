@@ -245,15 +245,13 @@ def envelope_physics(setup, led_rows) -> dict:
     return row
 
 
-def receiver_figures(summary: dict, false_decodes: list, prefix: str = "") -> dict:
+def receiver_figures(summary: dict, prefix: str = "") -> dict:
     """One receiver's outcomes among the fully visible PHY-SDUs, with the ok fraction's 95 % Wilson interval.
 
     Parameters
     ----------
     summary : dict
         :func:`rollsim.evaluate.summarise` of its records.
-    false_decodes : list of dict
-        Its records that match no emission.
     prefix : str
         Put before every column name (``"genie_"``).
     """
@@ -263,8 +261,7 @@ def receiver_figures(summary: dict, false_decodes: list, prefix: str = "") -> di
     low, high = wilson_interval(counts["ok"], fully) if fully else (None, None)
     row = {name: counts[name] for name in ("ok", "corrupted", "missed", "undetected_error")}
     row.update(ok_fraction=counts["ok"] / fully if fully else None, ok_ci_low=low, ok_ci_high=high,
-               false_decodes=len(false_decodes),
-               false_decodes_passed=sum(1 for d in false_decodes if d.get("check_ok", False)))
+               false_decodes=summary["false_decodes"], false_decodes_passed=summary["false_decodes_check_passed"])
     return {prefix + name: value for name, value in row.items()}
 
 
@@ -295,8 +292,7 @@ def envelope_row(scene: Scene, options: dict) -> dict:
     led_rows = next((t["led_rows"] for t in run.truth if t.get("led_rows")), None)
     return {"frames": scene.frames, "emissions": decoded.summary["emissions"],
             "fully_visible": decoded.summary["fully_visible"], **envelope_physics(setup, led_rows),
-            **receiver_figures(decoded.summary, decoded.false_decodes),
-            **receiver_figures(genie.summary, genie.false_decodes, "genie_"),
+            **receiver_figures(decoded.summary), **receiver_figures(genie.summary, "genie_"),
             "render_s": float(sum(run.render_s)), "decode_s": float(sum(run.decode_s)), "genie_s": genie_s}
 
 
