@@ -10,7 +10,9 @@ import pytest
 
 from rollsim.render import RenderPipeline
 from rollsim.scene import load_scene
-from rollsim.sensor.chain import Adc, ChainKeys, _chain_numpy, run_chain
+import rollsim.sensor.chain as chain
+from rollsim.sensor.chain import BLOCK_PIXELS, Adc, ChainKeys, _chain_numpy, run_chain
+from rollsim.sensor.poisson import PoissonTables
 from rollsim.sensor.adc import gray8_lut
 
 SMALL = ["camera.width_px=320", "camera.height_px=240"]
@@ -86,6 +88,27 @@ def test_every_part_of_the_chain_equals_the_numpy_twin(shot):
         numpy_twin = _chain_numpy(lam, shot, keys, kwargs.get("full_well_e"), kwargs.get("read_sigma_e"),
                                   kwargs.get("adc"), kwargs.get("lut"))
         assert np.array_equal(run_chain(lam, shot, keys, **kwargs), numpy_twin), kwargs
+
+
+def test_blocks_and_tables_built_mid_frame_keep_the_numpy_twins_bytes(monkeypatch):
+    """Several blocks of the compiled chain, with an empty table store.
+
+    The first block starts with means below 1 (no table), so the kernel
+    stops in the middle of it at the first unbuilt class; every class from
+    there on is built and the block runs again from its start. The bytes
+    must still be the twin's.
+    """
+    monkeypatch.setattr(chain, "TABLES", PoissonTables())
+    rng = np.random.default_rng(7)
+    n = BLOCK_PIXELS
+    lam = np.concatenate([np.full(n // 2, 0.3), np.full(n, 10.27), np.full(n, 0.3), rng.uniform(1.0, 256.0, n),
+                          rng.uniform(256.0, 6e4, n), rng.permutation(np.r_[np.full(n // 2, 4.0), rng.uniform(0, 3, n // 2)]),
+                          [0.0, 2.0**21, 99.5]])
+    keys = ChainKeys(np.uint64(11), np.uint64(12))
+    adc, lut = Adc(0.7, 64, 10), gray8_lut(64, 10)
+    compiled = run_chain(lam, "poisson", keys, full_well_e=5e4, read_sigma_e=2.0, adc=adc, lut=lut)
+    assert chain.TABLES.guide.size > 0
+    assert np.array_equal(compiled, _chain_numpy(lam, "poisson", keys, 5e4, 2.0, adc, lut))
 
 
 def test_photon_transfer_slope_is_the_gain():
