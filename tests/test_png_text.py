@@ -11,7 +11,7 @@ from PIL import Image
 
 from rollsim.cli import main
 from rollsim.protocol.png_text import add_png_text, read_png_text
-from rollsim.render.writer import encode_png
+from rollsim.render.png import encode_png
 from rollsim.scene import load_scene
 
 IMAGE = (np.arange(30 * 40) % 251).astype(np.uint8).reshape(30, 40)

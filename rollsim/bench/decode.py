@@ -13,7 +13,7 @@ import cv2
 from rollsim.text_tables import format_table
 from rollsim.bench.common import machine, seconds_per_call
 from rollsim.render import render_frames
-from rollsim.render.writer import encode_png
+from rollsim.render.png import encode_png
 from rollsim.scene import load_scene
 from rollsim.decode import settings_from_scene
 

@@ -173,7 +173,8 @@ def stage_profile(scene: Scene, frames: int, warmup: int = 1) -> dict:
 def png_ms_per_frame(scene: Scene, frames: int) -> float:
     """Median ms to PNG-encode one rendered frame, as the writer does (with its text chunks)."""
     from rollsim.render import RenderPipeline
-    from rollsim.render.writer import encode_png, frame_text
+    from rollsim.render.png import encode_png
+    from rollsim.render.writer import frame_text
 
     frame = RenderPipeline(scene).render(0)
     text = frame_text(scene, frame.truth)

@@ -22,8 +22,10 @@ _HEADER_END = len(PNG_SIGNATURE) + 8 + 13 + 4  # signature, IHDR (length, type, 
 MAX_KEYWORD_BYTES = 79
 
 
-def _chunk(kind: bytes, data: bytes) -> bytes:
-    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+def png_chunk(kind: bytes, data: bytes) -> bytes:
+    """One PNG chunk: length, type, data and the CRC-32 of type and data."""
+    crc = zlib.crc32(data, zlib.crc32(kind))  # no copy of a frame's data to join it to its type
+    return b"".join([struct.pack(">I", len(data)), kind, data, struct.pack(">I", crc)])
 
 
 def _text_data(keyword: str, text: str) -> bytes:
@@ -31,6 +33,18 @@ def _text_data(keyword: str, text: str) -> bytes:
     if not 1 <= len(key) <= MAX_KEYWORD_BYTES or key != key.strip() or b"\x00" in key:
         raise ValueError(f"PNG text keyword {keyword!r}: 1 to 79 Latin-1 characters, no leading or trailing space")
     return key + b"\x00" + text.encode("latin-1")
+
+
+def text_chunks(entries: Mapping[str, str]) -> bytes:
+    """A ``tEXt`` chunk per entry, in order.
+
+    Raises
+    ------
+    ValueError
+        A keyword or text that is not Latin-1, or a keyword that is empty,
+        longer than 79 bytes or padded with spaces.
+    """
+    return b"".join(png_chunk(b"tEXt", _text_data(key, str(value))) for key, value in entries.items())
 
 
 def add_png_text(png: bytes, entries: Mapping[str, str]) -> bytes:
@@ -44,8 +58,7 @@ def add_png_text(png: bytes, entries: Mapping[str, str]) -> bytes:
     """
     if png[: len(PNG_SIGNATURE)] != PNG_SIGNATURE or png[12:16] != b"IHDR":
         raise ValueError("not a PNG: no signature and image header")
-    chunks = b"".join(_chunk(b"tEXt", _text_data(key, str(value))) for key, value in entries.items())
-    return png[:_HEADER_END] + chunks + png[_HEADER_END:]
+    return png[:_HEADER_END] + text_chunks(entries) + png[_HEADER_END:]
 
 
 def read_png_text(png: bytes) -> dict[str, str]:

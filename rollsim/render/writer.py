@@ -15,29 +15,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Iterator, Optional
 
-import cv2
-
 from rollsim.jit import numpy_only
 from rollsim.version import __version__
 from rollsim.outputs import staged_directory
 from rollsim.parallel import chunked, default_workers, ordered_chunk_map
 from rollsim.protocol.frames import FRAME_NAME  # the name decoders read back
-from rollsim.protocol.png_text import add_png_text
 from rollsim.render.pipeline import RenderPipeline, check_render_memory
+from rollsim.render.png import encode_png
 from rollsim.scene import scene_to_yaml
 from rollsim.sensor.chain import warm_up
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
 
-# Sensor noise makes frames nearly incompressible: Huffman-only coding after
-# the SUB filter encodes a noisy 1080p frame about 4x faster than zlib's
-# level 1 (17 ms against 64 ms here) for 1% more bytes.
-PNG_PARAMS = [
-    cv2.IMWRITE_PNG_COMPRESSION, 1,
-    cv2.IMWRITE_PNG_STRATEGY, cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY,
-    cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_SUB,
-]
 CHUNK_FRAMES = 4
 
 
@@ -48,17 +38,6 @@ class RenderSummary:
     out_dir: Path
     frames: int
     workers: int
-
-
-def encode_png(image, text: Optional[dict] = None) -> bytes:
-    """PNG bytes of an 8- or 16-bit image: gray ``(H, W)`` or RGB ``(H, W, 3)``,
-    with ``text`` as tEXt chunks (:mod:`rollsim.protocol.png_text`)."""
-    if image.ndim == 3:
-        image = image[:, :, ::-1]  # OpenCV writes BGR: the PNG holds true RGB
-    ok, buffer = cv2.imencode(".png", image, PNG_PARAMS)
-    if not ok:
-        raise RuntimeError("PNG encoding failed")
-    return add_png_text(buffer.tobytes(), text) if text else buffer.tobytes()
 
 
 def frame_text(scene: Scene, truth: dict) -> dict[str, str]:

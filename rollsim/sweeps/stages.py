@@ -173,7 +173,8 @@ def _write_frames(run, scene: Scene, frames_dir: Path) -> None:
     import json
 
     from rollsim.outputs import staged_directory
-    from rollsim.render.writer import FRAME_NAME, encode_png, frame_text
+    from rollsim.render.png import encode_png
+    from rollsim.render.writer import FRAME_NAME, frame_text
     from rollsim.scene import scene_to_yaml
 
     with staged_directory(frames_dir) as staging:
