@@ -24,7 +24,7 @@ def _chip_string(chips) -> str:
     return "".join("#" if c else "." for c in np.asarray(chips).ravel())
 
 
-def describe_scene(scene: Scene, emissions: int = 12) -> dict:
+def describe_scene(scene: Scene, emissions: int = 12, rlnc: bool = True) -> dict:
     """Key figures of a scene, as a JSON-ready dict.
 
     Parameters
@@ -32,6 +32,10 @@ def describe_scene(scene: Scene, emissions: int = 12) -> dict:
     scene : Scene
     emissions : int
         How many emissions of the schedule to list.
+    rlnc : bool, default True
+        Predict random linear coding's figures for a scene of another
+        strategy too (:func:`rollsim.channel.prediction.link_prediction`);
+        :func:`format_description` shows only the scene's own strategy.
     """
     cam, link = scene.camera, scene.link
     # The listed sequence numbers become an int64, a Python int and JSON
@@ -91,7 +95,7 @@ def describe_scene(scene: Scene, emissions: int = 12) -> dict:
             "first_sdu_chips": _chip_string(tx.waveform.chips.values(np.arange(phy.sdu_chips))),
             "on_fraction": float(ones[1] - ones[0]) / max(1, round_emissions * phy.sdu_chips),
         },
-        "link": link_prediction(scene),
+        "link": link_prediction(scene, rlnc=rlnc),
         "signal": signal_budget(scene),
         "effects": list(scene.effects.enabled()),
     }

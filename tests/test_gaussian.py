@@ -59,3 +59,29 @@ def test_word_table_tails_are_the_quantiles_of_the_word_centres():
     # The scalar (kernel) form agrees with the array form.
     for word in (0, 1, 65535, 65536, 2**31, 2**32 - 1):
         assert normal_from_word(np.uint64(word), *tables) == normal_from_words(np.array([word], np.uint64), *tables)[0]
+
+
+def test_tables_are_scipys_quantiles_to_the_bit():
+    """AS241 (no scipy.special import at start-up) gives, as float32, the very
+    tables scipy.special.ndtri gives: every entry of all three."""
+    from scipy.special import ndtri
+
+    from rollsim.gaussian import normal_tables
+
+    body, low, high = normal_tables()
+    bins = np.arange(65536, dtype=np.float64)
+    assert body.tobytes() == ndtri((bins + 0.5) / 65536).astype(np.float32).tobytes()
+    assert low.tobytes() == ndtri((bins + 0.5) / 2.0**32).astype(np.float32).tobytes()
+    assert high.tobytes() == (-ndtri((bins + 0.5) / 2.0**32).astype(np.float32))[::-1].tobytes()
+
+
+def test_normal_quantile_is_ndtri_to_a_few_ulps():
+    from scipy.special import ndtri
+
+    from rollsim.gaussian import normal_quantile
+
+    rng = np.random.default_rng(7)
+    # Every branch of AS241: the body (|p - 1/2| <= 0.425), the near and the far tails, and their edges.
+    p = np.concatenate([rng.random(200_000), 10.0 ** -rng.uniform(0, 300, 20_000),
+                        [0.5, 0.075, 0.925, 0.0749999, 0.9250001, np.exp(-25.0), 1e-300, 1 - 2**-53, 2**-1074]])
+    np.testing.assert_allclose(normal_quantile(p), ndtri(p), rtol=5e-15, atol=0)

@@ -155,3 +155,42 @@ def test_radiometry_accepts_arrays_where_light_varies():
     lux = np.array([0.0, 10.0, 100.0])
     assert np.allclose(lambertian_luminance_cd_m2(lux, 0.5), 0.5 * lux / math.pi)
     assert np.allclose(photon_rate_per_pixel(lux, 1e-6, 4e15), lux * 1e-12 * 4e15)
+
+
+def direct_disk_corner_area(x, y, r):
+    """The corner area as computed before its primitives were shared: every
+    primitive evaluated on the full broadcast arrays."""
+    from rollsim.optics.footprint import _chord_primitive as H
+
+    x = np.clip(x, -r, r)
+    yc = np.clip(y, -r, r)
+    a = np.sqrt(np.maximum(r * r - yc * yc, 0.0))
+    middle = np.clip(x, -a, a)
+    inner = yc * (middle + a) + H(middle, r) - H(-a, r)
+    outer = 2.0 * (H(np.minimum(x, -a), r) + np.maximum(H(x, r) - H(a, r), 0.0))
+    return inner + np.where(yc >= 0, outer, 0.0)
+
+
+def test_disk_corner_area_shares_its_primitives_to_the_bit():
+    from rollsim.optics.footprint import _disk_corner_area
+
+    rng = np.random.default_rng(11)
+    for r in (0.3, 1.0, 7.0, 12.0, 530.0, 1e4):
+        for centre in ((0.0, 0.0), (3.0, -2.0), tuple(rng.uniform(-2 * r, 2 * r, 2))):
+            xs = np.arange(-int(1.5 * r) - 2, int(1.5 * r) + 3, max(1, int(r) // 40), dtype=float) - centre[0]
+            ys = np.arange(-int(1.5 * r) - 2, int(1.5 * r) + 3, max(1, int(r) // 40), dtype=float) - centre[1]
+            grid = _disk_corner_area(xs[None, :], ys[:, None], r)
+            assert grid.tobytes() == direct_disk_corner_area(xs[None, :], ys[:, None], r).tobytes()
+        x, y = rng.uniform(-2 * r, 2 * r, (2, 500))
+        assert _disk_corner_area(x, y, r).tobytes() == direct_disk_corner_area(x, y, r).tobytes()
+
+
+def test_disk_footprint_by_row_blocks_is_one_grid():
+    """_disk_exact works 32 rows at a time: the coverage of one grid of corners."""
+    from rollsim.optics.footprint import _disk_exact, _snap
+
+    xs = np.arange(0, 301, dtype=float) - 150.3
+    ys = np.arange(0, 101, dtype=float) - 40.7  # 100 rows: four blocks, the last one short
+    G = direct_disk_corner_area(xs[None, :], ys[:, None], 120.0)
+    whole = _snap(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1], 120.0)
+    assert _disk_exact(xs, ys, 120.0).tobytes() == whole.tobytes()

@@ -4,8 +4,14 @@ Checked by what a fresh interpreter has imported once it has run both
 commands, not by a clock. colour-science (with the matplotlib and pandas it
 imports), scipy.stats and scipy.signal each took a second or more of every
 command's start-up; rollsim reads V(λ) and the illuminants' photons per
-lumen from tables, the negative binomial from scipy.special and the glare's
-convolution from scipy.fft instead (the tests of each check the same bits).
+lumen from tables instead. Any part of SciPy 1.17 costs about 0.3 s more
+(its array-API layer imports numpy.testing and numpy.f2py): the normal
+tables are computed by AS241 (rollsim.gaussian) and the Poisson tables'
+log-factorials by cephes' own formulas (rollsim.sensor.special), scipy's
+bits both (their tests check), the glare's convolution runs on OpenCV's
+DFT, and only ``describe --json`` and RLNC scenes predict the rlnc figures
+with scipy.special's negative binomial. numba is loaded by long renders
+only, tqdm only to show a bar.
 """
 
 from __future__ import annotations
@@ -16,10 +22,10 @@ import sys
 
 from clitools import SMALL
 
-UNUSED = ("colour", "matplotlib", "pandas", "pyarrow", "scipy.stats", "scipy.signal")
+UNUSED = ("colour", "matplotlib", "pandas", "pyarrow", "scipy", "numba", "tqdm", "numpy.testing", "numpy.f2py")
 
-# paper-default lists ambient light (an illuminant) and glare (a convolution),
-# and describe predicts the rlnc figures (a negative binomial).
+# paper-default lists ambient light (an illuminant), glare (a convolution)
+# and Poisson shot noise (log-factorials), and describe's text predicts RP.
 PROGRAM = """
 import json, sys
 from rollsim.cli import main
@@ -34,5 +40,41 @@ print(json.dumps(sorted(n for n in sys.modules if any(n == u or n.startswith(u +
 def test_describe_and_render_do_not_import_what_they_do_not_use(tmp_path):
     program = PROGRAM.format(small=SMALL, unused=UNUSED)
     done = subprocess.run([sys.executable, "-c", program], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[-1]) == []
+
+
+# What loading the commands' modules may not import: the heavy modules are
+# imported inside the functions that need them (a glare's convolution, an
+# rlnc prediction, a compiled kernel, a progress bar, a plot).
+IMPORT_PROGRAM = """
+import json, sys
+import rollsim.cli, rollsim.describe, rollsim.render.pipeline, rollsim.scene, rollsim.channel.eventsim
+unused = {unused!r}
+print(json.dumps(sorted(n for n in sys.modules if any(n == u or n.startswith(u + ".") for u in unused))))
+"""
+
+
+def test_loading_the_command_modules_imports_no_heavy_module(tmp_path):
+    unused = (*UNUSED, "cv2")
+    done = subprocess.run([sys.executable, "-c", IMPORT_PROGRAM.format(unused=unused)], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[-1]) == []
+
+
+# ``describe --json`` lists every strategy's figures: rlnc's negative
+# binomial is scipy.special's (its bits), never scipy.stats.
+JSON_PROGRAM = """
+import json, sys
+from rollsim.cli import main
+assert main(["describe", "paper-default", "--json"]) == 0
+print(json.dumps(sorted(n for n in sys.modules if n.startswith(("scipy.stats", "scipy.signal", "numba")))))
+"""
+
+
+def test_describe_json_imports_only_scipy_special(tmp_path):
+    done = subprocess.run([sys.executable, "-c", JSON_PROGRAM], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=120)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.splitlines()[-1]) == []

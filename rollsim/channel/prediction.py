@@ -35,18 +35,24 @@ def _cached_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: in
         figures[f"p_message_{strategy}"] = analytic.mmbp_p_message(M, N, r, p_e, n, strategy)
         figures[f"goodput_{strategy}_bps"] = analytic.mmbp_expected_goodput_bps(M, N, r, p_e, n, strategy,
                                                                                 payload_bits, sdu_s)
-    figures["expected_emissions_rlnc"], figures["goodput_rlnc_bps"] = rateless.rlnc_figures(M, N, p_e, n, payload_bits,
-                                                                                          sdu_s)
     return figures
 
 
-def mmbp_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: int, sdu_s: float) -> dict:
-    """p0, P(message) and expected goodput (bit/s) of RP and RS under the MMBP.
+@functools.lru_cache(maxsize=1 << 16)
+def _cached_rlnc_figures(M: int, N: int, p_e: float, n: int, payload_bits: int, sdu_s: float) -> dict:
+    expected, goodput = rateless.rlnc_figures(M, N, p_e, n, payload_bits, sdu_s)
+    return {"expected_emissions_rlnc": expected, "goodput_rlnc_bps": goodput}
 
-    Keys ``p0_rp``, ``p0_rs``, ``p_message_rp``, ``p_message_rs``,
-    ``goodput_rp_bps``, ``goodput_rs_bps``. Memoised (a sweep over distance
-    or exposure meets the same few ``(M, N)`` in thousands of cells); the
-    dict returned is a fresh copy.
+
+def mmbp_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: int, sdu_s: float,
+                 rlnc: bool = True) -> dict:
+    """p0, P(message) and expected goodput (bit/s) of RP and RS under the MMBP, and rlnc's figures.
+
+    Keys ``p0_rp``, ``p0_rs``, ``p_message_rp``, ``goodput_rp_bps``,
+    ``p_message_rs``, ``goodput_rs_bps`` and, with ``rlnc``,
+    ``expected_emissions_rlnc`` and ``goodput_rlnc_bps``. Memoised (a sweep
+    over distance or exposure meets the same few ``(M, N)`` in thousands of
+    cells); the dict returned is a fresh copy.
 
     Parameters
     ----------
@@ -62,12 +68,26 @@ def mmbp_figures(M: int, N: int, r: int, p_e: float, n: int, payload_bits: int, 
         P, bits.
     sdu_s : float
         PHY-SDU duration, s.
+    rlnc : bool, default True
+        Include random linear coding's figures. Their negative binomial is
+        scipy.special's, whose import costs about 0.3 s: a caller that
+        shows only RP or RS (``rollsim describe``'s text) leaves them out.
     """
-    return dict(_cached_figures(int(M), int(N), int(r), float(p_e), int(n), int(payload_bits), float(sdu_s)))
+    figures = dict(_cached_figures(int(M), int(N), int(r), float(p_e), int(n), int(payload_bits), float(sdu_s)))
+    if rlnc:
+        figures.update(_cached_rlnc_figures(int(M), int(N), float(p_e), int(n), int(payload_bits), float(sdu_s)))
+    return figures
 
 
-def link_prediction(scene: Scene) -> dict:
+def link_prediction(scene: Scene, rlnc: bool = True) -> dict:
     """The scene's link as the physics and the MMBP analysis see it.
+
+    Parameters
+    ----------
+    scene : Scene
+    rlnc : bool, default True
+        Include random linear coding's figures whatever the scene's strategy
+        (:func:`mmbp_figures`); an rlnc scene always has them.
 
     Returns
     -------
@@ -93,8 +113,9 @@ def link_prediction(scene: Scene) -> dict:
     rows = max(0, last - first + 1)
     n, sdu_s = n_packets(link.message_bytes, link.payload_bits), sdu_duration_from_scene(scene)
     sensor_mm = cam.height_px * cam.pixel_pitch_um * 1e-3
-    figures = mmbp_figures(slots.M, slots.N, link.repeats, scene.channel.p_e, n, link.payload_bits, sdu_s)
     strategy = link.strategy
+    figures = mmbp_figures(slots.M, slots.N, link.repeats, scene.channel.p_e, n, link.payload_bits, sdu_s,
+                           rlnc=rlnc or strategy == "rlnc")
     return {
         "led_rows": [int(first), int(last)] if rows else None,
         "led_rows_from": "geometric image" if "glare" not in scene.effects else "stripes above the noise",

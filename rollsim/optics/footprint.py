@@ -66,16 +66,24 @@ def _chord_primitive(t: np.ndarray, r: float) -> np.ndarray:
 
 
 def _disk_corner_area(x: np.ndarray, y: np.ndarray, r: float) -> np.ndarray:
-    """Area of the disk of radius r at the origin with X ≤ x and Y ≤ y."""
+    """Area of the disk of radius r at the origin with X ≤ x and Y ≤ y (``x`` and ``y`` broadcast together)."""
     x = np.clip(x, -r, r)
     yc = np.clip(y, -r, r)
     a = np.sqrt(np.maximum(r * r - yc * yc, 0.0))  # |t| < a: chord crosses Y = y
     middle = np.clip(x, -a, a)
-    H = _chord_primitive
+    # The primitive at x, at −a and at a, each on its own array: the clipped
+    # abscissae below are one of these, so their primitives are picked, not
+    # recomputed (the same values: equal arguments where the picks meet). On
+    # a grid of pixel corners that is one arcsin per column and per row
+    # instead of several per corner.
+    h_x, h_minus_a, h_a = _chord_primitive(x, r), _chord_primitive(-a, r), _chord_primitive(a, r)
+    left = x < -a
+    h_middle = np.where(left, h_minus_a, np.where(x > a, h_a, h_x))  # H(clip(x, −a, a))
+    h_low = np.where(left, h_x, h_minus_a)  # H(min(x, −a))
     # Inner band |t| < a: from the bottom of the chord (−h) up to y.
-    inner = yc * (middle + a) + H(middle, r) - H(-a, r)
+    inner = yc * (middle + a) + h_middle - h_minus_a
     # Outer bands |t| ≥ a: the whole chord (y ≥ 0) or nothing (y < 0).
-    outer = 2.0 * (H(np.minimum(x, -a), r) + np.maximum(H(x, r) - H(a, r), 0.0))
+    outer = 2.0 * (h_low + np.maximum(h_x - h_a, 0.0))
     return inner + np.where(yc >= 0, outer, 0.0)
 
 
@@ -94,10 +102,20 @@ def _snap(coverage: np.ndarray, r: float) -> np.ndarray:
     return coverage
 
 
+# Pixel rows per block of _disk_exact: its float64 temporaries (a dozen of
+# 32 x 1920) stay in cache; frame-sized ones would not.
+_BLOCK_ROWS = 32
+
+
 def _disk_exact(xs: np.ndarray, ys: np.ndarray, r: float) -> np.ndarray:
-    # Inclusion-exclusion over the four corners of each pixel.
-    G = _disk_corner_area(xs[None, :], ys[:, None], r)
-    return _snap(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1], r)
+    # Inclusion-exclusion over the four corners of each pixel, block of rows
+    # by block (each block's corner areas are those of the whole grid).
+    coverage = np.empty((ys.size - 1, xs.size - 1))
+    for start in range(0, ys.size - 1, _BLOCK_ROWS):
+        stop = min(start + _BLOCK_ROWS, ys.size - 1)
+        G = _disk_corner_area(xs[None, :], ys[start : stop + 1, None], r)
+        coverage[start:stop] = _snap(G[1:, 1:] - G[1:, :-1] - G[:-1, 1:] + G[:-1, :-1], r)
+    return coverage
 
 
 def _interval_overlap(lo: np.ndarray, half: float) -> np.ndarray:

@@ -27,12 +27,23 @@ apart, at full precision, so the LED's sharp image is untouched. The
 kernel's mass within its radius R is 1 − η (1 + R²/r₀²)^(1−β): the light
 scattered further out is lost past the frame's edge, as on a sensor.
 The kernel spans every offset between a lit pixel and the frame: at 1080p
-about 2161 × 3841 pixels, convolved once per scene in well under a second.
+about 2161 × 3841 pixels, convolved once per scene in about 0.1 s.
+
+The frames carry these float32 bits: a convolution that is as exact but
+rounds differently (another FFT library, a shorter circular convolution)
+moves a few pixels of a glare scene's frames by one level. The transforms
+are therefore SciPy's pocketfft, as scipy.fft runs them, loaded without
+scipy.fft's 0.3 s of imports (:func:`fft_convolve_full`).
 """
 
 from __future__ import annotations
 
+import functools
 import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -62,6 +73,17 @@ def moffat_mass_beyond(radius_px: float, core_px: float, exponent: float) -> flo
     return (1.0 + (radius_px / core_px) ** 2) ** (1.0 - exponent)
 
 
+def _inside(radius: int, ry: int, rx: int) -> np.ndarray:
+    """Offsets (±ry, ±rx) within the disk of ``radius``, by exact integers: a boolean array."""
+    # The disk in exact integers: row dy holds |dx| <= isqrt(R^2 - dy^2).
+    room = radius**2 - np.arange(-ry, ry + 1, dtype=np.int64) ** 2
+    half_widths = np.floor(np.sqrt(np.maximum(room, 0))).astype(np.int64)
+    half_widths -= half_widths**2 > room  # the float root may round across an integer
+    half_widths += (half_widths + 1) ** 2 <= room
+    half_widths[room < 0] = -1
+    return np.abs(np.arange(-rx, rx + 1))[None, :] <= half_widths[:, None]
+
+
 def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols: int) -> np.ndarray:
     """The scattered part of the glare kernel, on pixel offsets (±rows, ±cols).
 
@@ -89,44 +111,112 @@ def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols
         raise ValueError(f"exponent must be > 1, got {exponent}")
     ry, rx = int(radius_rows), int(radius_cols)
     # float32 throughout: the kernel spans ~4 frames of pixels, and the
-    # halo is convolved in float32 anyway.
-    dy = np.arange(-ry, ry + 1, dtype=np.float32)[:, None] / np.float32(core_px)
-    dx = np.arange(-rx, rx + 1, dtype=np.float32)[None, :] / np.float32(core_px)
-    kernel = dy**2 + dx**2  # (r / r0)^2, then the profile in place
+    # halo is convolved in float32 anyway. The profile depends on |dy| and
+    # |dx| alone (the same float32 operations on −d as on d), so its powers,
+    # the costly part, are taken on one quadrant and mirrored: the same values.
+    dy = np.arange(ry + 1, dtype=np.float32)[:, None] / np.float32(core_px)
+    dx = np.arange(rx + 1, dtype=np.float32)[None, :] / np.float32(core_px)
+    quadrant = dy**2 + dx**2  # (r / r0)^2, then the profile in place
+    quadrant += np.float32(1.0)
+    np.power(quadrant, np.float32(-exponent), out=quadrant)
+    rows, cols = np.abs(np.arange(-ry, ry + 1)), np.abs(np.arange(-rx, rx + 1))
+    kernel = np.take(np.take(quadrant, rows, axis=0), cols, axis=1)
     inscribed = min(ry, rx)
-    # The disk in exact integers: row dy holds |dx| <= isqrt(R^2 - dy^2).
-    room = inscribed**2 - np.arange(-ry, ry + 1, dtype=np.int64) ** 2
-    half_widths = np.floor(np.sqrt(np.maximum(room, 0))).astype(np.int64)
-    half_widths -= half_widths**2 > room  # the float root may round across an integer
-    half_widths += (half_widths + 1) ** 2 <= room
-    half_widths[room < 0] = -1
-    inside = np.abs(np.arange(-rx, rx + 1))[None, :] <= half_widths[:, None]
-    kernel += np.float32(1.0)
-    np.power(kernel, np.float32(-exponent), out=kernel)
-    scale = (1.0 - moffat_mass_beyond(inscribed, core_px, exponent)) / kernel[inside].sum(dtype=np.float64)
+    # The scale from the whole kernel's disk, summed in its own order: the
+    # kernel's bits do not depend on how its samples were computed.
+    scale = (1.0 - moffat_mass_beyond(inscribed, core_px, exponent)) / kernel[_inside(inscribed, ry, rx)].sum(
+        dtype=np.float64)
     kernel *= np.float32(scale)
     return kernel
 
 
-def fft_convolve_full(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+@functools.lru_cache(maxsize=1)
+def _pocketfft() -> Any:
+    """SciPy's pocketfft extension module (scipy.fft's compiled transforms), or None.
+
+    Importing scipy.fft imports SciPy's array-API layer, and with it
+    numpy.testing and numpy.f2py: about 0.3 s of every glare scene's
+    start-up, for three transforms that take less. The extension behind
+    scipy.fft (``scipy/fft/_pocketfft/pypocketfft``) needs none of that: it
+    is loaded from its file under its own name, as the import system would
+    load it (a later ``import scipy.fft`` finds that same module). None where
+    SciPy keeps it elsewhere: scipy.fft is then imported (the same numbers).
+    """
+    import importlib.machinery
+    import importlib.util
+
+    name = "scipy.fft._pocketfft.pypocketfft"
+    if name in sys.modules:
+        return sys.modules[name]
+    scipy_spec = importlib.util.find_spec("scipy")  # finds the package without importing it
+    if scipy_spec is None or not scipy_spec.submodule_search_locations:
+        return None
+    folder = Path(next(iter(scipy_spec.submodule_search_locations))) / "fft" / "_pocketfft"
+    for suffix in importlib.machinery.EXTENSION_SUFFIXES:
+        path = folder / f"pypocketfft{suffix}"
+        if path.is_file():
+            loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+            spec = importlib.util.spec_from_file_location(name, str(path), loader=loader)
+            if spec is None:
+                return None
+            module = importlib.util.module_from_spec(spec)
+            loader.exec_module(module)
+            wanted = ("r2c", "c2r", "good_size")
+            return module if all(hasattr(module, attribute) for attribute in wanted) else None
+    return None
+
+
+def _zero_padded(x: np.ndarray, shape: list[int], axes: list[int]) -> np.ndarray:
+    """``x`` in a zero array of ``shape`` along ``axes`` (no shorter), as scipy.fft pads its input."""
+    out_shape = list(x.shape)
+    for n, axis in zip(shape, axes, strict=True):
+        out_shape[axis] = n
+    out = np.zeros(out_shape, x.dtype)
+    out[tuple(slice(0, n) for n in x.shape)] = x
+    return out
+
+
+def fft_convolve_full(a: np.ndarray, b: np.ndarray, workers: int = 1) -> np.ndarray:
     """The full linear convolution of two real arrays of equal dimension, by FFT.
 
-    ``scipy.signal.fftconvolve(a, b, mode="full")`` through ``scipy.fft``
-    alone, with SciPy's transforms, sizes and products, so the same bits
-    (tests/render/test_emitter_light.py compares them): scipy.signal takes
-    about a second to import (it imports scipy.stats), longer than a
-    frame's render.
-    """
-    from scipy import fft
+    ``scipy.signal.fftconvolve(a, b, mode="full")``, with SciPy's transforms,
+    sizes and products, so the same bits (tests/render/test_emitter_light.py
+    compares them): scipy.signal takes about a second to import (it imports
+    scipy.stats), longer than a frame's render, and scipy.fft 0.3 s. The
+    transforms are scipy.fft's ``rfftn`` and ``irfftn`` as they reach
+    pocketfft for float32 arrays (norm "backward": 1/n on the inverse,
+    inorm 2), called on the extension itself (:func:`_pocketfft`).
 
+    Parameters
+    ----------
+    a, b : ndarray of float32 (or float64)
+        Same number of dimensions.
+    workers : int, default 1
+        Threads of the transforms. pocketfft shares whole one-dimensional
+        transforms out among them: the same bits for any number.
+
+    Returns
+    -------
+    ndarray, shape ``a.shape + b.shape − 1``
+    """
     shape = [n1 + n2 - 1 for n1, n2 in zip(a.shape, b.shape, strict=True)]
     # Axes of length 1 broadcast in the product, as in SciPy: no transform.
     axes = [axis for axis in range(a.ndim) if a.shape[axis] != 1 and b.shape[axis] != 1]
     if not axes:
         return a * b
-    fast_shape = [fft.next_fast_len(shape[axis], True) for axis in axes]
-    spectrum = fft.rfftn(a, fast_shape, axes=axes) * fft.rfftn(b, fast_shape, axes=axes)
-    return fft.irfftn(spectrum, fast_shape, axes=axes)[tuple(slice(n) for n in shape)]
+    cut = tuple(slice(n) for n in shape)
+    pocketfft = _pocketfft()
+    if pocketfft is None:
+        from scipy import fft  # another SciPy layout: the public functions, the same numbers
+
+        fast_shape = [fft.next_fast_len(shape[axis], True) for axis in axes]
+        spectrum = fft.rfftn(a, fast_shape, axes=axes, workers=workers) * fft.rfftn(b, fast_shape, axes=axes,
+                                                                                    workers=workers)
+        return fft.irfftn(spectrum, fast_shape, axes=axes, workers=workers)[cut]
+    fast_shape = [pocketfft.good_size(shape[axis], True) for axis in axes]  # scipy.fft.next_fast_len
+    spectrum = (pocketfft.r2c(_zero_padded(a, fast_shape, axes), axes, True, 0, None, workers)
+                * pocketfft.r2c(_zero_padded(b, fast_shape, axes), axes, True, 0, None, workers))
+    return pocketfft.c2r(spectrum, axes, fast_shape[-1], False, 2, None, workers)[cut]
 
 
 def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float, core_px: float,
@@ -160,9 +250,12 @@ def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float
         ry = max(light.rows.stop, height - light.rows.start)
         rx = max(light.cols.stop, width - light.cols.start)
         kernel = moffat_kernel(core_px, exponent, ry, rx)
-        halo = fft_convolve_full(light.coverage.astype(np.float32), kernel)
+        # Two threads at most: the one convolution of the scene's setup, on
+        # a machine whose cores may all be rendering (the bits do not change).
+        halo = fft_convolve_full(light.coverage.astype(np.float32), kernel, workers=min(2, os.cpu_count() or 1))
         # halo[i, j] lies at frame row light.rows.start - ry + i, column light.cols.start - rx + j.
         top, left = ry - light.rows.start, rx - light.cols.start
-        out += fraction * halo[top : top + height, left : left + width].astype(np.float64)
+        # η·halo in float64 (the float32 halo widened first), one frame-sized temporary.
+        out += np.multiply(halo[top : top + height, left : left + width], fraction, dtype=np.float64)
     np.maximum(out, 0.0, out=out)  # FFT round-off can dip a hair below 0 where the halo is faint
     return Footprint(slice(0, height), slice(0, width), out)

@@ -10,6 +10,7 @@ from scipy.integrate import quad
 from rollsim.errors import SceneError
 from rollsim.optics.emitter import profiled_light, radial_table_light
 from rollsim.optics.footprint import Footprint, footprint
+from rollsim.optics import glare
 from rollsim.optics.glare import fft_convolve_full, glare_core_px, glared_light, moffat_kernel, moffat_mass_beyond
 from rollsim.render import RenderPipeline
 from rollsim.scene import load_scene
@@ -97,16 +98,91 @@ def test_glare_is_linear_in_the_light():
 
 
 @pytest.mark.parametrize("shape_a, shape_b", [((13, 17), (31, 29)), ((1, 7), (5, 9)), ((7, 1), (5, 9)), ((1, 1), (3, 3)),
-                                              ((4, 6), (1, 1))])
-def test_fft_convolution_is_scipy_signals_to_the_bit(shape_a, shape_b):
-    """The halo's convolution, without importing scipy.signal, gives fftconvolve's float32 bits."""
+                                              ((4, 6), (1, 1)), ((310, 310), (701, 1117))])
+@pytest.mark.parametrize("workers", [1, 2])
+def test_fft_convolution_is_scipy_signals_to_the_bit(shape_a, shape_b, workers):
+    """The halo's convolution, without importing scipy.signal, gives fftconvolve's float32 bits (threads or not)."""
     from scipy.signal import fftconvolve
 
     rng = np.random.default_rng(sum(shape_a + shape_b))
     a, b = rng.random(shape_a, dtype=np.float32), rng.random(shape_b, dtype=np.float32)
-    expected, got = fftconvolve(a, b, mode="full"), fft_convolve_full(a, b)
+    expected, got = fftconvolve(a, b, mode="full"), fft_convolve_full(a, b, workers=workers)
     assert (got.dtype, got.shape) == (expected.dtype, expected.shape)
     assert got.tobytes() == expected.tobytes()
+
+
+def direct_moffat_kernel(core_px, exponent, ry, rx):
+    """The kernel as moffat_kernel computed it before its quadrant: every sample's power taken."""
+    dy = np.arange(-ry, ry + 1, dtype=np.float32)[:, None] / np.float32(core_px)
+    dx = np.arange(-rx, rx + 1, dtype=np.float32)[None, :] / np.float32(core_px)
+    kernel = dy**2 + dx**2
+    kernel += np.float32(1.0)
+    np.power(kernel, np.float32(-exponent), out=kernel)
+    offsets_y, offsets_x = np.indices(kernel.shape)
+    inside = (offsets_y - ry) ** 2 + (offsets_x - rx) ** 2 <= min(ry, rx) ** 2
+    kernel *= np.float32((1.0 - moffat_mass_beyond(min(ry, rx), core_px, exponent)) / kernel[inside].sum(dtype=np.float64))
+    return kernel
+
+
+@pytest.mark.parametrize(("core_px", "exponent", "ry", "rx"), [(8.0, 2.0, 200, 260), (15.0, 1.5, 3, 9), (3.0, 3.5, 50, 7),
+                                                             (208.24, 2.0, 695, 1115), (0.5, 4.0, 0, 6)])
+def test_moffat_kernel_mirrors_its_quadrant_to_the_bit(core_px, exponent, ry, rx):
+    """Powers taken on one quadrant and mirrored: every sample the direct formula's, the scale too."""
+    kernel = moffat_kernel(core_px, exponent, ry, rx)
+    assert kernel.dtype == np.float32 and kernel.flags.c_contiguous
+    assert kernel.tobytes() == direct_moffat_kernel(core_px, exponent, ry, rx).tobytes()
+
+
+def test_the_transforms_are_scipy_ffts_extension_without_scipy_fft():
+    """The halo's transforms come from scipy.fft's own compiled module, loaded
+    on its own; without it (another SciPy layout) scipy.fft gives the same bits."""
+    assert glare._pocketfft() is not None  # the fast path is the one these tests check
+    rng = np.random.default_rng(5)
+    a, b = rng.random((40, 31), dtype=np.float32), rng.random((77, 90), dtype=np.float32)
+    direct = fft_convolve_full(a, b)
+    try:
+        glare._pocketfft.cache_clear()
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(glare, "_pocketfft", lambda: None)
+            assert fft_convolve_full(a, b).tobytes() == direct.tobytes()
+    finally:
+        glare._pocketfft.cache_clear()
+
+
+def reference_glare(light, frame, eta, core, beta):
+    """glared_light as it was: scipy.signal's full convolution with the directly computed kernel, cut to the frame."""
+    from scipy.signal import fftconvolve
+
+    height, width = frame
+    out = light.dense(frame) * (1.0 - eta)
+    ry = max(light.rows.stop, height - light.rows.start)
+    rx = max(light.cols.stop, width - light.cols.start)
+    halo = fftconvolve(light.coverage.astype(np.float32), direct_moffat_kernel(core, beta, ry, rx), mode="full")
+    top, left = ry - light.rows.start, rx - light.cols.start
+    out += eta * halo[top : top + height, left : left + width].astype(np.float64)
+    return np.maximum(out, 0.0)
+
+
+GLARE_CASES = [
+    ((120, 140), (60, 61), (70, 71)),  # a point
+    ((120, 140), (0, 1), (0, 1)),  # in a corner
+    ((120, 140), (119, 120), (139, 140)),  # in the opposite corner
+    ((120, 140), (30, 81), (40, 101)),  # a box
+    ((120, 140), (0, 120), (0, 140)),  # the whole frame
+    ((1, 9), (0, 1), (2, 5)),  # one row
+    ((37, 53), (5, 36), (50, 53)),
+]
+
+
+@pytest.mark.parametrize(("frame", "rows", "cols"), GLARE_CASES)
+@pytest.mark.parametrize(("eta", "core", "beta"), [(0.3, 6.0, 2.0), (1.0, 0.5, 4.0), (0.8, 208.0, 2.0)])
+def test_glare_is_the_scipy_signal_convolution_to_the_bit(frame, rows, cols, eta, core, beta):
+    """The frames carry the halo's float32 bits (another rounding moves a few
+    pixels by a level): glared_light is scipy.signal.fftconvolve's, exactly."""
+    coverage = np.random.default_rng(sum(rows + cols)).random((rows[1] - rows[0], cols[1] - cols[0]))
+    light = Footprint(slice(*rows), slice(*cols), coverage)
+    got = glared_light(light, frame, eta, core, beta)
+    assert got.coverage.tobytes() == reference_glare(light, frame, eta, core, beta).tobytes()
 
 
 # ----------------------------------------------------------- the face's profile
@@ -229,6 +305,23 @@ def test_readable_contrast_is_the_decoders():
     from rollsim.effects.readable import READABLE_CONTRAST_SIGMA
 
     assert READABLE_CONTRAST_SIGMA == MIN_CONTRAST_SIGMA
+
+
+def test_row_snr_by_blocks_is_the_whole_frames():
+    """frame_row_snr works block of rows by block: every row's SNR is, to the
+    bit, stripe_gap_and_variance and row_stripe_snr over the whole frame."""
+    from rollsim.effects.readable import frame_row_snr, row_stripe_snr, stripe_gap_and_variance
+
+    small = ["camera.width_px=320", "camera.height_px=240"]
+    # Rates of one value, and (H, W) maps (vignetting, a colour filter array).
+    for overrides in (["link.distance_cm=5"], ["link.distance_cm=30"], [*small, "effects.vignetting=null"],
+                      [*small, "effects.bayer=null", "camera.output=rgb8"], [*small, "effects.dark_current=null"]):
+        setup = RenderPipeline(load_scene("paper-default", overrides)).setup
+        maps = any(o.startswith(("effects.vignetting", "effects.bayer")) for o in overrides)
+        assert isinstance(setup.background_e_per_s, np.ndarray) == maps
+        gap, variance = stripe_gap_and_variance(setup.led_light.dense(setup.shape), setup.footprint.dense(setup.shape),
+                                                setup)
+        assert frame_row_snr(setup).tobytes() == row_stripe_snr(gap, variance).tobytes()
 
 
 def test_readable_rows_follow_the_noise():
