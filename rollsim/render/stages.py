@@ -78,7 +78,8 @@ def led_signal_stage(setup: SceneSetup) -> Stage:
         electrons = np.zeros(shape)
         if fp.coverage.size:
             row_signal = scalar_rate * state.led_exposure_s[fp.rows]
-            electrons[fp.rows, fp.cols] = coverage_of(fp) * row_signal[:, None]
+            # Straight into the frame: no footprint-sized temporary (~9 MB at 1080p).
+            np.multiply(coverage_of(fp), row_signal[:, None], out=electrons[fp.rows, fp.cols])
         state.electrons = electrons
 
     return Stage("led_signal", "signal", run)

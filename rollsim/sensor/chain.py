@@ -177,6 +177,10 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
     last_mean = -1.0
     one_lookup = False
     row = np.int64(-1)  # guide row of the last mean's class; -1: a mean below 1, no table
+    last_ident = np.int64(-1)  # the last class met, with its guide row, mean and lowest count
+    class_row = np.int64(0)
+    class_mean = 0.0
+    class_k_lo = np.int64(0)
     zero_below = np.uint64(0)  # words below this draw 0 from the last mean's remainder
     for first in range(start, lam.size, BLOCK_PIXELS):
         last = min(first + BLOCK_PIXELS, lam.size)
@@ -216,10 +220,15 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                 if one_lookup and mean >= 1.0:
                     ident = ((np.int64(bits_of[i] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
                         (bits_of[i] >> MANTISSA_SHIFT) & CLASS_MASK)
-                    if slot[ident] < 0:
-                        return first  # a class without its table: built, then this block again
-                    row = slot[ident] * TABLE_BINS
-                    rest = mean - class_means[ident]
+                    if ident != last_ident:  # a smooth gradient (glare, vignetting) keeps its class a while
+                        if slot[ident] < 0:
+                            return first  # a class without its table: built, then this block again
+                        last_ident = ident
+                        class_row = slot[ident] * TABLE_BINS
+                        class_mean = class_means[ident]
+                        class_k_lo = k_lo[ident]
+                    row = class_row
+                    rest = mean - class_mean
                 # u >= 1 - r, as words: u = w·2^-32 is exact, so it is w >= ceil((1 - r)·2^32).
                 zero_below = np.uint64(math.ceil((1.0 - rest) * _TWO_32)) if rest > 0.0 else np.uint64(_TWO_32)
             if one_lookup:
@@ -230,8 +239,8 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                 word64 = z ^ (z >> np.uint64(31))
                 if row >= 0:
                     entry = guide[row + np.int64((word64 >> np.uint64(32)) >> BIN_SHIFT)]
-                    if (entry & STRADDLE) == 0 and (word64 & LOW32) < zero_below:
-                        electrons_of[i - first] = np.float32(entry)
+                    if entry < STRADDLE and (word64 & LOW32) < zero_below:
+                        electrons_of[i - first] = np.float32(class_k_lo + np.int64(entry))
                         continue
                 elif (word64 >> np.uint64(32)) < zero_below:  # a mean below 1 drawing 0
                     electrons_of[i - first] = np.float32(0.0)
@@ -262,11 +271,11 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                     if slot[ident] < 0:
                         return first  # a class without its table: built, then this block again
                     entry = guide[slot[ident] * TABLE_BINS + np.int64(word >> BIN_SHIFT)]
-                    k = np.int64(entry & K_MASK)
+                    k = k_lo[ident] + np.int64(entry & K_MASK)
                     if entry & STRADDLE:
                         u = np.float64(word) * WORD_SCALE
                         base = cdf_start[ident]
-                        lo = k - k_lo[ident]
+                        lo = np.int64(entry & K_MASK)
                         hi = cdf_size[ident] - 1
                         while lo < hi:
                             mid = (lo + hi) // 2

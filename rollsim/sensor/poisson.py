@@ -8,9 +8,11 @@ below λ/256. Each class has a table, built once per process and kept:
 
 * Poisson(g) is drawn by inverting its CDF at a uniform u = w·2^-32 from one
   32-bit random word w: the word's top 10 bits pick one of 1024 equal bins of
-  u, and the table gives the count at the bin's start, flagged where a step
-  of the CDF lies inside the bin; only then does a binary search over the
-  class's CDF find the exact step. The CDF is summed from the log pmf over
+  u, and the table gives the count at the bin's start (16 bits: its offset
+  from the class's lowest tabled count, 2 KB per class, so that the tables
+  of a frame whose every pixel has its own mean stay in cache), flagged
+  where a step of the CDF lies inside the bin; only then does a binary
+  search over the class's CDF find the exact step. The CDF is summed from the log pmf over
   g ± (12√g + 12), outside which the probability is below 1e-30.
 * The remainder λ − g is split again the same way while it is at least 1
   (for λ below 256 it already is not), and a remainder r < 1 is drawn by
@@ -37,7 +39,7 @@ import math
 import threading
 
 import numpy as np
-from scipy.special import gammaln
+from rollsim.sensor.special import gammaln  # scipy.special's bits without its 0.3 s import
 
 from rollsim.counter_rng import LOW32, WORD_SCALE, stream_key, words
 from rollsim.gaussian import normal_from_words, normal_tables
@@ -49,9 +51,10 @@ TABLE_BINS = 1 << BIN_BITS
 MAX_EXPONENT = 20
 GAUSSIAN_ABOVE_E = float(2**MAX_EXPONENT)
 N_CLASSES = MAX_EXPONENT << CLASS_BITS
-# Table entries: k in the low 31 bits, bit 31 set where a CDF step lies inside the bin.
-STRADDLE = np.uint32(1 << 31)
-K_MASK = np.uint32((1 << 31) - 1)
+# Table entries: k − k_lo in the low 15 bits (below 2·(12·√2^20 + 12) + 2 < 2^15), bit 15
+# set where a CDF step lies inside the bin.
+STRADDLE = np.uint16(1 << 15)
+K_MASK = np.uint16((1 << 15) - 1)
 MANTISSA_SHIFT = np.uint64(52 - CLASS_BITS)
 CLASS_MASK = np.uint64((1 << CLASS_BITS) - 1)
 _KEEP_CLASS_BITS = ~np.uint64((1 << (52 - CLASS_BITS)) - 1)
@@ -97,7 +100,7 @@ def class_mean(ids: np.ndarray) -> np.ndarray:
 
 
 def _guide_tables(means: np.ndarray):
-    """Per class: 1024 entries (k at the bin's start, flagged where a CDF step lies inside), and the CDFs."""
+    """Per class: 1024 entries (k − k_lo at the bin's start, flagged where a CDF step lies inside), and the CDFs."""
     k_lo, offsets, owner, cdf = _cdf_segments(means)
     n = means.size
     # hist[c, b]: CDF entries of class c in bin b (bin B holds those at 1).
@@ -105,7 +108,10 @@ def _guide_tables(means: np.ndarray):
     hist = np.bincount(owner * (TABLE_BINS + 1) + bins, minlength=n * (TABLE_BINS + 1)).reshape(n, TABLE_BINS + 1)
     below = np.cumsum(hist[:, :TABLE_BINS], axis=1) - hist[:, :TABLE_BINS]
     last = (offsets[1:] - offsets[:-1] - 1)[:, None]
-    guide = (k_lo[:, None] + np.minimum(below, last)).astype(np.uint32)
+    offset = np.minimum(below, last)
+    if offset.max(initial=0) > K_MASK:  # a class mean past the tables' range
+        raise ValueError("a Poisson table's count offsets exceed 15 bits")
+    guide = offset.astype(np.uint16)
     guide[hist[:, :TABLE_BINS] > 0] |= STRADDLE
     return guide, k_lo, offsets, cdf
 
@@ -115,7 +121,9 @@ class PoissonTables:
 
     Attributes
     ----------
-    guide : ndarray of uint32, shape (n_built · 1024,)
+    guide : ndarray of uint16, shape (n_built · 1024,)
+        Per bin, the count at the bin's start minus the class's ``k_lo``,
+        with :data:`STRADDLE` set where the CDF steps inside the bin.
     cdf : ndarray of float64
         Every built class's CDF, concatenated.
     slot : ndarray of int64, shape (N_CLASSES,)
@@ -124,7 +132,7 @@ class PoissonTables:
     """
 
     def __init__(self) -> None:
-        self.guide = np.zeros(0, dtype=np.uint32)
+        self.guide = np.zeros(0, dtype=np.uint16)
         self.cdf = np.zeros(0, dtype=np.float64)
         self.slot = np.full(N_CLASSES, -1, dtype=np.int64)
         self.cdf_start = np.zeros(N_CLASSES, dtype=np.int64)
@@ -134,8 +142,10 @@ class PoissonTables:
 
     def missing(self, ids: np.ndarray) -> np.ndarray:
         """The class ids among ``ids`` not built yet (sorted, unique)."""
-        ids = np.unique(ids)
-        return ids[self.slot[ids] < 0]
+        # Filtered before np.unique: once a process's tables are built, a
+        # frame's millions of ids are checked with one gather, not sorted.
+        ids = np.asarray(ids, dtype=np.int64)
+        return np.unique(ids[self.slot[ids] < 0])
 
     def build(self, ids: np.ndarray) -> None:
         """Build the tables of class ids ``ids`` (those already built are skipped)."""
@@ -193,13 +203,13 @@ def _half(word_lo: np.ndarray, word_hi: np.ndarray, part: np.ndarray) -> np.ndar
 def _table_counts(tables: PoissonTables, ids: np.ndarray, word: np.ndarray) -> np.ndarray:
     """Poisson(class mean) by the guide table and, in straddled bins, binary search."""
     entry = tables.guide[tables.slot[ids] * TABLE_BINS + (word >> BIN_SHIFT).astype(np.int64)]
-    k = (entry & K_MASK).astype(np.int64)
+    k = tables.k_lo[ids] + (entry & K_MASK).astype(np.int64)
     refine = np.flatnonzero(entry & STRADDLE)
     if refine.size:
         cls = ids[refine]
         u = word[refine].astype(np.float64) * WORD_SCALE
         base = tables.cdf_start[cls]
-        lo = k[refine] - tables.k_lo[cls]
+        lo = (entry[refine] & K_MASK).astype(np.int64)
         hi = tables.cdf_size[cls] - 1
         while True:
             active = lo < hi
@@ -246,6 +256,8 @@ def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
     rest[big] = 0.0
     # The first table step, for every mean of 1 or more: word 0 of each pixel.
     tabled = np.flatnonzero(rest >= 1.0)
+    if tabled.size == n:  # every pixel (a lit frame): a slice, not a gather and scatter per array
+        tabled = slice(None)
     ids, g = split_class(rest[tabled])
     TABLES.build(ids)  # skips the classes already built
     out[tabled] = _table_counts(TABLES, ids, first[tabled] >> np.uint64(32))
@@ -253,7 +265,7 @@ def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
     part = np.zeros(n, dtype=np.int8)
     part[tabled] = 1
     # Further steps, for means of 256 or more only (words 1 to 3).
-    active = tabled[rest[tabled] >= 1.0]
+    active = np.flatnonzero(rest >= 1.0)  # only tabled pixels can still hold 1 or more
     if active.size:
         second = np.zeros(n, dtype=np.uint64)
         second[active] = words(key, active.astype(np.uint64) * np.uint64(2) + np.uint64(1))
@@ -266,10 +278,13 @@ def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
             active = active[rest[active] >= 1.0]
     small = np.flatnonzero(rest > 0.0)
     if small.size:
-        word = np.where(part[small] == 0, first[small] >> np.uint64(32), first[small] & LOW32)
-        later = np.flatnonzero(part[small] >= 2)
+        if small.size == n:  # remainders everywhere (the usual frame): a slice
+            small = slice(None)
+        first_small, part_small = first[small], part[small]
+        word = np.where(part_small == 0, first_small >> np.uint64(32), first_small & LOW32)
+        later = np.flatnonzero(part_small >= 2)
         if later.size:
-            word[later] = _half(first[small[later]], second[small[later]], part[small[later]])
+            word[later] = _half(first_small[later], second[small][later], part_small[later])
         out[small] += _small_counts(rest[small], word)
     if big.size:
         lam_big = lam[big].astype(np.float64)
