@@ -166,11 +166,12 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
     # A block of pixels goes through three loops. (1) Shot noise where it is
     # one table lookup: a mean below 256 (one class), a guide entry without a
     # CDF step inside its bin and a remainder that draws 0 (u < 1 − r); about
-    # 97 % of a frame's pixels. (2) Every other pixel by the general method,
-    # exactly as the numpy twin does it. (3) Full well, read noise, ADC and
-    # output. Kept apart, the short common loop runs three times faster than
-    # one loop carrying the rare branches; the bytes are the same, since each
-    # pixel's words depend only on its index.
+    # 95 % of a frame's pixels on paper-geometric and paper-default. (2) Every
+    # other pixel by the general method, exactly as the numpy twin does it.
+    # (3) Full well, read noise, ADC and output. Kept apart, the short common
+    # loop ran about three times faster than one loop carrying the rare
+    # branches; the bytes are the same, since each pixel's words depend only
+    # on its index.
     bits_of = lam.view(np.uint64)
     electrons_of = np.empty(BLOCK_PIXELS, dtype=np.float32)
     general = np.empty(BLOCK_PIXELS, dtype=np.int64)
