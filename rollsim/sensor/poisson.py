@@ -255,9 +255,9 @@ def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
     big = np.flatnonzero(rest >= GAUSSIAN_ABOVE_E)
     rest[big] = 0.0
     # The first table step, for every mean of 1 or more: word 0 of each pixel.
-    tabled = np.flatnonzero(rest >= 1.0)
-    if tabled.size == n:  # every pixel (a lit frame): a slice, not a gather and scatter per array
-        tabled = slice(None)
+    tabled_at = np.flatnonzero(rest >= 1.0)
+    # Every pixel (a lit frame): a slice, not a gather and a scatter per array.
+    tabled: np.ndarray | slice = slice(None) if tabled_at.size == n else tabled_at
     ids, g = split_class(rest[tabled])
     TABLES.build(ids)  # skips the classes already built
     out[tabled] = _table_counts(TABLES, ids, first[tabled] >> np.uint64(32))
@@ -276,10 +276,10 @@ def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
             rest[active] -= g
             part[active] += 1
             active = active[rest[active] >= 1.0]
-    small = np.flatnonzero(rest > 0.0)
-    if small.size:
-        if small.size == n:  # remainders everywhere (the usual frame): a slice
-            small = slice(None)
+    small_at = np.flatnonzero(rest > 0.0)
+    if small_at.size:
+        # Remainders everywhere (the usual frame): a slice.
+        small: np.ndarray | slice = slice(None) if small_at.size == n else small_at
         first_small, part_small = first[small], part[small]
         word = np.where(part_small == 0, first_small >> np.uint64(32), first_small & LOW32)
         later = np.flatnonzero(part_small >= 2)
