@@ -11,7 +11,7 @@ beside its target (:data:`TARGETS`) where one exists:
    Also ``render`` itself (the stages plus the truth record) of the core
    alone and of the default effects with either shot-noise method.
 2. **PNG floor**: ms to encode one frame as the writer does
-   (:func:`~rollsim.render.writer.encode_png` with the frame's text
+   (:func:`~rollsim.render.png.encode_png` with the frame's text
    chunks), and the rate that PNG encoding alone would allow on N workers,
    N x 1000 / ms. The end-to-end rate (render, encode and write with
    ``render_to_dir``) is given as a fraction of that floor.

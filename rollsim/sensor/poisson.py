@@ -150,7 +150,7 @@ class PoissonTables:
     def build(self, ids: np.ndarray) -> None:
         """Build the tables of class ids ``ids`` (those already built are skipped)."""
         with self._lock:
-            ids = self.missing(np.asarray(ids, dtype=np.int64))
+            ids = self.missing(ids)
             if ids.size == 0:
                 return
             guide, k_lo, offsets, cdf = _guide_tables(class_mean(ids))
@@ -284,7 +284,7 @@ def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
         word = np.where(part_small == 0, first_small >> np.uint64(32), first_small & LOW32)
         later = np.flatnonzero(part_small >= 2)
         if later.size:
-            word[later] = _half(first_small[later], second[small][later], part_small[later])
+            word[later] = _half(first_small[later], second[small_at[later]], part_small[later])
         out[small] += _small_counts(rest[small], word)
     if big.size:
         lam_big = lam[big].astype(np.float64)
