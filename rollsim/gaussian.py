@@ -20,6 +20,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from rollsim.portable_math import log  # numpy's differs in the last bit between CPUs
+
 NORMAL_METHODS = ("exact", "table")
 _BINS = 1 << 16
 
@@ -83,7 +85,7 @@ def normal_quantile(p: np.ndarray) -> np.ndarray:
     out[central] = qc * _rational(_AS241_CENTRAL, 0.180625 - qc * qc)
     tails = ~central
     qt = q[tails]
-    r = np.sqrt(-np.log(np.where(qt <= 0.0, p[tails], 1.0 - p[tails])))
+    r = np.sqrt(-log(np.where(qt <= 0.0, p[tails], 1.0 - p[tails])))
     x = np.empty_like(r)
     near = r <= 5.0
     x[near] = _rational(_AS241_INTERMEDIATE, r[near] - 1.6)

@@ -7,10 +7,10 @@ command's start-up; rollsim reads V(λ) and the illuminants' photons per
 lumen from tables instead. Any part of SciPy 1.17 costs about 0.3 s more
 (its array-API layer imports numpy.testing and numpy.f2py): the normal
 tables are computed by AS241 (rollsim.gaussian) and the Poisson tables'
-log-factorials by cephes' own formulas (rollsim.sensor.special), scipy's
-bits both (their tests check), the glare's convolution runs on OpenCV's
-DFT, and only ``describe --json`` and RLNC scenes predict the rlnc figures
-with scipy.special's negative binomial. numba is loaded by long renders
+log-factorials by cephes' own formulas (rollsim.sensor.special), the
+glare's convolution runs on scipy.fft's compiled module loaded alone, and
+only ``describe --json`` and RLNC scenes predict the rlnc figures with
+scipy.special's negative binomial. numba is loaded by long renders
 only, tqdm only to show a bar.
 """
 

@@ -20,6 +20,7 @@ import numpy as np
 from pydantic import Field
 
 from rollsim.effects.base import Effect, EffectParams, StageRun, fixed_pattern_rng
+from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
 
 if TYPE_CHECKING:
     from rollsim.render.setup import SceneSetup
@@ -56,7 +57,7 @@ def lognormal_unit_mean(rng: np.random.Generator, shape: tuple[int, int], relati
     values = rng.standard_normal(shape, dtype=np.float32)
     values *= np.float32(math.sqrt(s2))
     values += np.float32(-0.5 * s2)
-    return np.exp(values)
+    return exp(values).astype(np.float32)
 
 
 def dark_rate_map(setup: SceneSetup, params: DarkCurrent) -> float | np.ndarray:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
+
 TRUNCATE_SIGMA = 4.0  # kernel radius in σ: 6.3e-5 of the mass cut, renormalised
 
 
@@ -27,16 +29,41 @@ def gaussian_kernel(sigma_px: float) -> np.ndarray:
         return np.ones(1, dtype=np.float32)
     radius = max(1, int(np.ceil(TRUNCATE_SIGMA * sigma_px)))
     x = np.arange(-radius, radius + 1, dtype=np.float64)
-    kernel = np.exp(-0.5 * (x / sigma_px) ** 2)
+    kernel = exp(-0.5 * (x / sigma_px) ** 2)
     return (kernel / kernel.sum()).astype(np.float32)
 
 
+# The filters' weights are multiples of 2^-WEIGHT_BITS (see _filtered).
+WEIGHT_BITS = 16
+
+
+def fixed_point_kernel(kernel: np.ndarray) -> np.ndarray:
+    """``kernel``'s weights rounded to multiples of 2^-WEIGHT_BITS, their sum exactly 1 (float64).
+
+    The rounding's remainder goes to the centre weight; each weight moves by
+    at most ~1.5e-5.
+    """
+    scale = float(1 << WEIGHT_BITS)
+    weights = np.rint(np.asarray(kernel, dtype=np.float64) * scale)
+    weights[weights.size // 2] += scale - weights.sum()
+    return weights / scale
+
+
 def _filtered(values: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> np.ndarray:
-    """float32 ``values`` convolved with the separable Gaussian, float32 (edges mirrored)."""
+    """8-bit ``values`` (float32) convolved with the separable Gaussian, float32 (edges mirrored).
+
+    Exact before the final rounding to float32, so the same bits on every
+    CPU: OpenCV's float filters fuse multiply-adds where the CPU has them,
+    which rounds differently. With integer pixels up to 255 and weights that
+    are multiples of 2^-16 summing to 1, every product and partial sum of
+    both passes is a multiple of 2^-32 below 2^40, exact in float64 in any
+    order.
+    """
     import cv2
 
-    return cv2.sepFilter2D(values, cv2.CV_32F, gaussian_kernel(sigma_cols_px),
-                           gaussian_kernel(sigma_rows_px), borderType=cv2.BORDER_REFLECT_101)
+    filtered = cv2.sepFilter2D(values.astype(np.float64), cv2.CV_64F, fixed_point_kernel(gaussian_kernel(sigma_cols_px)),
+                               fixed_point_kernel(gaussian_kernel(sigma_rows_px)), borderType=cv2.BORDER_REFLECT_101)
+    return filtered.astype(np.float32)
 
 
 def _to_uint8(values: np.ndarray) -> np.ndarray:

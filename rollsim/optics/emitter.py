@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from rollsim.optics.footprint import Footprint
+from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
 
 
 def profiled_light(fp: Footprint, centre_px: tuple[float, float], sigma_px: float) -> Footprint:
@@ -48,7 +49,7 @@ def profiled_light(fp: Footprint, centre_px: tuple[float, float], sigma_px: floa
     # Relative to the nearest lit pixel: a profile far narrower than a pixel
     # must not underflow everywhere (its light then lands in that pixel).
     nearest = rho2[fp.coverage > 0].min()
-    return _weighted(fp, np.exp(-(rho2 - nearest) / (2.0 * sigma_px**2)))
+    return _weighted(fp, exp(-(rho2 - nearest) / (2.0 * sigma_px**2)))
 
 
 def radial_table_light(fp: Footprint, centre_px: tuple[float, float], radius_px: float, table) -> Footprint:

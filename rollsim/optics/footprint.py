@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rollsim.portable_math import arcsin  # numpy's differs in the last bit between CPUs
+
 EDGE_METHODS = ("exact", "supersample1", "supersample4", "supersample16")
 # A row counts as an LED row when the footprint covers at least this much
 # pixel area in it: a sliver at the tangent of a disk carries no usable light.
@@ -62,7 +64,7 @@ def _bounding_box(centre: float, size: float, limit: int) -> slice:
 def _chord_primitive(t: np.ndarray, r: float) -> np.ndarray:
     """∫_{-r}^{t} √(r² − s²) ds for t in [−r, r]."""
     t = np.clip(t, -r, r)
-    return 0.5 * (t * np.sqrt(np.maximum(r * r - t * t, 0.0)) + r * r * np.arcsin(t / r)) + 0.25 * np.pi * r * r
+    return 0.5 * (t * np.sqrt(np.maximum(r * r - t * t, 0.0)) + r * r * arcsin(t / r)) + 0.25 * np.pi * r * r
 
 
 def _disk_corner_area(x: np.ndarray, y: np.ndarray, r: float) -> np.ndarray:

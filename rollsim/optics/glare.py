@@ -30,10 +30,12 @@ The kernel spans every offset between a lit pixel and the frame: at 1080p
 about 2161 × 3841 pixels, convolved once per scene in about 0.1 s.
 
 The frames carry these float32 bits: a convolution that is as exact but
-rounds differently (another FFT library, a shorter circular convolution)
-moves a few pixels of a glare scene's frames by one level. The transforms
-are therefore SciPy's pocketfft, as scipy.fft runs them, loaded without
-scipy.fft's 0.3 s of imports (:func:`fft_convolve_full`).
+rounds differently (another FFT library, a shorter circular convolution,
+numpy's fused complex product) moves a few pixels of a glare scene's frames
+by one level. The transforms are therefore SciPy's pocketfft, as scipy.fft
+runs them, loaded without scipy.fft's 0.3 s of imports, and the spectra's
+product and the kernel's powers are computed alike on every CPU
+(:func:`fft_convolve_full`, :mod:`rollsim.portable_math`).
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from rollsim.optics.footprint import Footprint
+from rollsim.portable_math import power
 from rollsim.validation import as_positive
 
 
@@ -71,6 +74,10 @@ def moffat_mass_beyond(radius_px: float, core_px: float, exponent: float) -> flo
     if not as_positive(exponent, "exponent") > 1.0:
         raise ValueError(f"exponent must be > 1 (a halo of finite mass), got {exponent!r}")
     return (1.0 + (radius_px / core_px) ** 2) ** (1.0 - exponent)
+
+
+# Rows of the kernel's quadrant whose power is taken at once.
+_POWER_BLOCK_ROWS = 256
 
 
 def _inside(radius: int, ry: int, rx: int) -> np.ndarray:
@@ -110,15 +117,19 @@ def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols
     if not exponent > 1:
         raise ValueError(f"exponent must be > 1, got {exponent}")
     ry, rx = int(radius_rows), int(radius_cols)
-    # float32 throughout: the kernel spans ~4 frames of pixels, and the
-    # halo is convolved in float32 anyway. The profile depends on |dy| and
-    # |dx| alone (the same float32 operations on −d as on d), so its powers,
-    # the costly part, are taken on one quadrant and mirrored: the same values.
+    # float32 where it spans ~4 frames of pixels: the halo is convolved in
+    # float32 anyway. The profile depends on |dy| and |dx| alone (the same
+    # float32 operations on −d as on d), so its powers, the costly part, are
+    # taken on one quadrant and mirrored: the same values. The power is the
+    # portable one (numpy's float32 power differs in the last bit between
+    # CPUs), in float64 rounded once to float32.
     dy = np.arange(ry + 1, dtype=np.float32)[:, None] / np.float32(core_px)
     dx = np.arange(rx + 1, dtype=np.float32)[None, :] / np.float32(core_px)
     quadrant = dy**2 + dx**2  # (r / r0)^2, then the profile in place
     quadrant += np.float32(1.0)
-    np.power(quadrant, np.float32(-exponent), out=quadrant)
+    for first in range(0, quadrant.shape[0], _POWER_BLOCK_ROWS):  # float64 temporaries a block at a time
+        block = quadrant[first:first + _POWER_BLOCK_ROWS]
+        block[...] = power(block, -exponent)
     rows, cols = np.abs(np.arange(-ry, ry + 1)), np.abs(np.arange(-rx, rx + 1))
     kernel = np.take(np.take(quadrant, rows, axis=0), cols, axis=1)
     inscribed = min(ry, rx)
@@ -176,11 +187,29 @@ def _zero_padded(x: np.ndarray, shape: list[int], axes: list[int]) -> np.ndarray
     return out
 
 
+def spectrum_product(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The product of two complex spectra (broadcast), (ac − bd) + i(ad + bc).
+
+    Each product and sum rounded on its own: numpy's complex product fuses
+    them into multiply-adds on CPUs that have them, which rounds
+    differently, and moved a few pixels of a glare scene by a level between
+    machines.
+    """
+    real = x.real * y.real
+    real -= x.imag * y.imag
+    imag = x.real * y.imag
+    imag += x.imag * y.real
+    out = np.empty(real.shape, dtype=np.result_type(x, y))
+    out.real, out.imag = real, imag
+    return out
+
+
 def fft_convolve_full(a: np.ndarray, b: np.ndarray, workers: int = 1) -> np.ndarray:
     """The full linear convolution of two real arrays of equal dimension, by FFT.
 
-    ``scipy.signal.fftconvolve(a, b, mode="full")``, with SciPy's transforms,
-    sizes and products, so the same bits (tests/render/test_emitter_light.py
+    ``scipy.signal.fftconvolve(a, b, mode="full")`` with SciPy's transforms
+    and sizes, the spectra multiplied by :func:`spectrum_product` so that
+    the bits are the same on every CPU (tests/render/test_emitter_light.py
     compares them): scipy.signal takes about a second to import (it imports
     scipy.stats), longer than a frame's render, and scipy.fft 0.3 s. The
     transforms are scipy.fft's ``rfftn`` and ``irfftn`` as they reach
@@ -210,12 +239,12 @@ def fft_convolve_full(a: np.ndarray, b: np.ndarray, workers: int = 1) -> np.ndar
         from scipy import fft  # another SciPy layout: the public functions, the same numbers
 
         fast_shape = [fft.next_fast_len(shape[axis], True) for axis in axes]
-        spectrum = fft.rfftn(a, fast_shape, axes=axes, workers=workers) * fft.rfftn(b, fast_shape, axes=axes,
-                                                                                    workers=workers)
+        spectrum = spectrum_product(fft.rfftn(a, fast_shape, axes=axes, workers=workers),
+                                    fft.rfftn(b, fast_shape, axes=axes, workers=workers))
         return fft.irfftn(spectrum, fast_shape, axes=axes, workers=workers)[cut]
     fast_shape = [pocketfft.good_size(shape[axis], True) for axis in axes]  # scipy.fft.next_fast_len
-    spectrum = (pocketfft.r2c(_zero_padded(a, fast_shape, axes), axes, True, 0, None, workers)
-                * pocketfft.r2c(_zero_padded(b, fast_shape, axes), axes, True, 0, None, workers))
+    spectrum = spectrum_product(pocketfft.r2c(_zero_padded(a, fast_shape, axes), axes, True, 0, None, workers),
+                                pocketfft.r2c(_zero_padded(b, fast_shape, axes), axes, True, 0, None, workers))
     return pocketfft.c2r(spectrum, axes, fast_shape[-1], False, 2, None, workers)[cut]
 
 

@@ -13,10 +13,13 @@ and K_m = 683 lm/W.
 
 Spectra, all from colour-science:
 
-* LED: the Ohno (2005) single-LED model (``colour.sd_single_led``) at
-  ``led.peak_wavelength_nm``. Its width argument Δλ is not the full width at
-  half maximum: the model's FWHM is 0.9218·Δλ, so a requested FWHM is
-  divided by :data:`OHNO_FWHM_PER_WIDTH` first.
+* LED: the Ohno (2005) single-LED model at ``led.peak_wavelength_nm``,
+  (g + 2g⁵)/3 with g = exp(−((λ − λ_p)/Δλ)²), as ``colour.sd_single_led``
+  defines it, computed here with the portable exponential
+  (:mod:`rollsim.portable_math`) so that its bits do not depend on the
+  CPU. Its width Δλ is not the full width at half maximum: the model's
+  FWHM is 0.9218·Δλ, so a requested FWHM is divided by
+  :data:`OHNO_FWHM_PER_WIDTH` first.
 * Ambient light: CIE standard illuminants (``FL2``, ``FL11``, ``D65``, ``A``).
 * Camera: the NPL-measured camera sensitivities that colour-science ships
   (``colour.MSDS_CAMERA_SENSITIVITIES``). Each channel of those datasets is
@@ -42,6 +45,7 @@ from functools import lru_cache
 import numpy as np
 
 from rollsim.optics.radiometry import K_M_LM_PER_W, LIGHT_SPEED_M_S, PLANCK_J_S, photons_per_lumen_monochromatic
+from rollsim.portable_math import exp, log
 
 CAMERA_SENSITIVITIES = {
     "nikon_5100": "Nikon 5100 (NPL)",
@@ -62,10 +66,19 @@ def _colour():
 
 
 def _ohno_fwhm_per_width() -> float:
-    # Half maximum of (g + 2 g^5)/3 with g = exp(-x²): 2 g^5 + g − 3/2 = 0.
-    roots = np.roots([2.0, 0.0, 0.0, 0.0, 1.0, -1.5])
-    g = float(next(r.real for r in roots if abs(r.imag) < 1e-12 and 0 < r.real < 1))
-    return 2.0 * float(np.sqrt(-np.log(g)))
+    # Half maximum of (g + 2 g^5)/3 with g = exp(-x²): 2 g^5 + g − 3/2 = 0,
+    # whose one root in (0, 1) bisection finds to the last bit (the left side
+    # rises with g), the same on every machine.
+    lo, hi = 0.0, 1.0
+    while True:
+        mid = 0.5 * (lo + hi)
+        if mid in (lo, hi):
+            break
+        if 2.0 * (mid * mid) * (mid * mid) * mid + mid - 1.5 < 0.0:
+            lo = mid
+        else:
+            hi = mid
+    return 2.0 * float(np.sqrt(-log(hi)))
 
 
 OHNO_FWHM_PER_WIDTH = _ohno_fwhm_per_width()
@@ -87,11 +100,12 @@ def _on_grid(wavelengths_nm, values, grid_nm: np.ndarray) -> np.ndarray:
 
 
 def led_spectrum(peak_wavelength_nm: float, fwhm_nm: float, grid_nm: np.ndarray) -> np.ndarray:
-    """Relative spectral power of a single LED (Ohno 2005) of the given FWHM."""
-    colour = _colour()
-    shape = colour.SpectralShape(grid_nm[0], grid_nm[-1], grid_nm[1] - grid_nm[0])
-    sd = colour.sd_single_led(peak_wavelength_nm, shape, half_spectral_width=fwhm_nm / OHNO_FWHM_PER_WIDTH)
-    return np.asarray(sd.values, dtype=np.float64)
+    """Relative spectral power of a single LED (Ohno 2005) of the given FWHM (nm) on the grid (nm)."""
+    g = exp(-(((np.asarray(grid_nm, dtype=np.float64) - peak_wavelength_nm) / (fwhm_nm / OHNO_FWHM_PER_WIDTH)) ** 2))
+    g5 = g * g
+    g5 *= g5
+    g5 *= g
+    return (g + 2.0 * g5) / 3.0
 
 
 def illuminant_spectrum(name: str, grid_nm: np.ndarray) -> np.ndarray:

@@ -39,10 +39,11 @@ import math
 import threading
 
 import numpy as np
-from rollsim.sensor.special import gammaln  # scipy.special's bits without its 0.3 s import
 
 from rollsim.counter_rng import LOW32, WORD_SCALE, stream_key, words
 from rollsim.gaussian import normal_from_words, normal_tables
+from rollsim.portable_math import exp, log
+from rollsim.sensor.special import gammaln  # cephes' lgam without scipy.special's 0.3 s import
 
 CLASS_BITS = 8
 BIN_BITS = 10
@@ -84,8 +85,9 @@ def _cdf_segments(means: np.ndarray):
     owner = np.repeat(np.arange(means.size), sizes)
     k = (k_lo[owner] + np.arange(offsets[-1]) - offsets[owner]).astype(np.float64)
     lam = means[owner]
-    log_pmf = k * np.log(lam) - lam - gammaln(k + 1.0)  # every class mean is >= 1
-    pmf = np.exp(log_pmf)
+    # The same bits on every CPU (numpy's own exp and log are not).
+    log_pmf = k * log(means)[owner] - lam - gammaln(k + 1.0)  # every class mean is >= 1
+    pmf = exp(log_pmf)
     running = np.cumsum(pmf)
     first = offsets[:-1]
     cdf = running - np.repeat(running[first] - pmf[first], sizes)

@@ -1,16 +1,20 @@
-"""scipy.special's values that every render needs, without importing scipy.special.
+"""scipy.special's functions that every render needs, without importing scipy.special.
 
 Importing any part of SciPy 1.17 (scipy.special, scipy.fft, …) loads its
 array-API layer, which imports numpy.testing and numpy.f2py: about 0.3 s of
 every command's start-up on a small machine, more than a one-frame render's
-noise. The functions here give scipy's own bits for the arguments rollsim
-passes (the tests compare every one of them), and hand any other argument to
-scipy itself.
+noise. The functions here follow scipy's own algorithm (cephes) for the
+arguments rollsim passes, with the logarithm of :mod:`rollsim.portable_math`,
+so that they give the same bits on every CPU: within 2 ulp of scipy, which
+takes the C library's logarithm (tested). Any other argument goes to scipy
+itself.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from rollsim.portable_math import log
 
 # cephes lgam (scipy.special.gammaln): log √(2π), and Stirling's series in
 # 1/x² for 13 <= x < 1000 (highest power first), as cephes writes them.
@@ -26,19 +30,20 @@ def _log_factorials() -> np.ndarray:
     products = [1.0, 1.0, 1.0]
     for n in range(3, 13):
         products.append(products[-1] * (n - 1))
-    return np.log(np.array(products))
+    return log(np.array(products))
 
 
 _SMALL = _log_factorials()
 
 
 def gammaln(x) -> np.ndarray:
-    """log Γ(x), equal bit for bit to ``scipy.special.gammaln``.
+    """log Γ(x), as ``scipy.special.gammaln`` computes it, the same bits on every CPU.
 
     Positive integers below 1e8 (the Poisson tables' ``k + 1``) are computed
     here as cephes' ``lgam`` computes them: the log of the exact factorial
-    below 13, Stirling's series above. Any other argument is passed to
-    scipy.special, imported then.
+    below 13, Stirling's series above, with the portable logarithm (within
+    2 ulp of scipy's values). Any other argument is passed to scipy.special,
+    imported then.
 
     Parameters
     ----------
@@ -61,7 +66,7 @@ def gammaln(x) -> np.ndarray:
     large = x[~small]
     # cephes: q = (x − ½) log x − x + log √(2π), plus the series over x
     # (a shorter one from 1000 on), in its order of operations.
-    q = (large - 0.5) * np.log(large) - large + _LOG_SQRT_2PI
+    q = (large - 0.5) * log(large) - large + _LOG_SQRT_2PI
     p = 1.0 / (large * large)
     far = large >= 1000.0
     pf = p[far]

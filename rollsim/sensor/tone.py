@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rollsim.portable_math import power  # numpy's differs in the last bit between CPUs
 from rollsim.validation import unit_table_error
 
 __all__ = ["ToneCurve", "srgb_encode", "validate_table"]
@@ -32,7 +33,7 @@ def srgb_encode(v: np.ndarray) -> np.ndarray:
     v = np.asarray(v, dtype=np.float32)
     low = v * np.float32(12.92)
     # np.maximum keeps the power's argument non-negative where the branch is not taken.
-    high = np.float32(1.055) * np.power(np.maximum(v, np.float32(SRGB_LINEAR_LIMIT)), np.float32(1 / 2.4))
+    high = np.float32(1.055) * power(np.maximum(v, np.float32(SRGB_LINEAR_LIMIT)), 1 / 2.4).astype(np.float32)
     high -= np.float32(0.055)
     return np.where(v <= SRGB_LINEAR_LIMIT, low, high).astype(np.float32)
 
@@ -85,7 +86,7 @@ class ToneCurve:
         """Map normalised linear values in [0, 1] to normalised output values, float32."""
         v = np.clip(np.asarray(v, dtype=np.float32), 0.0, 1.0)
         if self.kind == "gamma":
-            return np.power(v, np.float32(1.0 / self.gamma))
+            return power(v, 1.0 / self.gamma).astype(np.float32)
         if self.kind == "srgb":
             return srgb_encode(v)
         pts = np.asarray(self.table, dtype=np.float64)

@@ -34,6 +34,8 @@ import math
 
 import numpy as np
 
+from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
+
 # Time constants of history before the first time asked for.
 HISTORY_TAU = 40.0
 # Chips per pass of the recurrence over a long history (bounds memory).
@@ -101,7 +103,7 @@ def led_output(waveform, t_s, tau_s: float) -> np.ndarray:
     first = int(chip.min())
     start_output = chip_start_output(waveform, first, int(chip.max()), tau_s)[chip - first]
     level = waveform.chip_level(chip)
-    return level + (start_output - level) * np.exp(-(frac * waveform.chip_period_s) / tau_s)
+    return level + (start_output - level) * exp(-(frac * waveform.chip_period_s) / tau_s)
 
 
 def exposure_exact(waveform, t_start_s, t_end_s, tau_s: float, step_exposure_s=None) -> np.ndarray:
