@@ -4,9 +4,10 @@ After the mean electrons of a frame are known, the EMVA 1288 chain is
 pixel by pixel: shot noise, the full-well clip, read noise, the ADC and the
 output table (black clip, tone curve, 8 bits). numpy needs a pass over the
 whole frame for each step of each stage (a hash, a lookup, a multiply, a
-clip, a cast); one compiled loop does them all while the pixel is in a
-register. :func:`run_chain` runs any contiguous part of the chain that starts
-with shot noise, or with read noise on electrons already noisy:
+clip, a cast); the compiled kernel does them all on a block of 1,024 pixels
+at a time, in buffers that stay in the cache. :func:`run_chain` runs any
+contiguous part of the chain that starts with shot noise, or with read
+noise on electrons already noisy:
 
 * ``shot``: ``"poisson"`` (:mod:`rollsim.sensor.poisson`), ``"gaussian"``
   (N(λ, λ), λ + √λ·z in float32) or None;
@@ -46,6 +47,7 @@ from rollsim.sensor.poisson import (
     EXPONENT_SHIFT,
     GAUSSIAN_ABOVE_E,
     K_MASK,
+    KEEP_CLASS_BITS,
     MANTISSA_SHIFT,
     MAX_SMALL_K,
     N_CLASSES,
@@ -146,10 +148,12 @@ def _chain_numpy(lam, shot, keys, full_well_e, read_sigma_e, adc, lut):
 # --------------------------------------------------------------- compiled
 
 
-# Pixels per block of the compiled chain: its shot-noise results (float32)
-# and the pixels left for the exact path stay in L1 between the loops.
-BLOCK_PIXELS = 4096
+# Pixels per block of the compiled chain: the block's buffers (~80 KB) stay
+# in the L2 cache between its loops.
+BLOCK_PIXELS = 1024
 _TWO_32 = 4294967296.0
+# A guide row for the kernel to read while no class is built (its entries are not used).
+_NO_GUIDE = np.zeros(TABLE_BINS, dtype=np.uint16)
 
 
 @kernel
@@ -160,183 +164,254 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
     # the chain does not take is passed as None (no shot noise, Gaussian shot
     # noise without the Poisson tables in ``guide``, no clip, no read noise, no
     # ADC, raw DN without ``lut``): numba compiles one version per pattern of
-    # Nones with the dead steps pruned, not one loop that tests every flag at
-    # every pixel.
+    # Nones with the dead steps pruned.
     #
-    # A block of pixels goes through three loops. (1) Shot noise where it is
-    # one table lookup: a mean below 256 (one class), a guide entry without a
-    # CDF step inside its bin and a remainder that draws 0 (u < 1 − r); about
-    # 95 % of a frame's pixels on paper-geometric and paper-default. (2) Every
-    # other pixel by the general method, exactly as the numpy twin does it.
-    # (3) Full well, read noise, ADC and output. Kept apart, the short common
-    # loop ran about three times faster than one loop carrying the rare
-    # branches; the bytes are the same, since each pixel's words depend only
-    # on its index.
+    # A block of pixels goes through short loops over its buffers, of two
+    # kinds. Loops of arithmetic alone (the hashes, the tests, the ADC) read
+    # and write contiguous buffers, so LLVM vectorises them; loops that look
+    # tables up (class, guide, normal and output tables) do that alone, in
+    # scalar code (LLVM cannot prove that the lookups miss the buffers
+    # written, so it vectorises no loop that has one). The common case of the
+    # shot noise is one table lookup: a mean below 256 (one class), a guide
+    # entry without a CDF step inside its bin and a remainder that draws 0
+    # (u < 1 − r), about 95 % of a frame's pixels on paper-geometric and
+    # paper-default. The others are sorted by what they need (the CDF step
+    # inside the bin, the remainder's draw, several classes), so that each
+    # loop over them branches alike. The one loop per pixel that carried
+    # every step and its rare branches took 1.2× (paper-geometric) to 1.7×
+    # (paper-default) as long. Each pixel's words depend only on its index,
+    # so the order of the work changes no bit: the numpy twin's bytes.
+    n_block = BLOCK_PIXELS
     bits_of = lam.view(np.uint64)
-    electrons_of = np.empty(BLOCK_PIXELS, dtype=np.float32)
-    general = np.empty(BLOCK_PIXELS, dtype=np.int64)
-    last_mean = -1.0
-    one_lookup = False
-    row = np.int64(-1)  # guide row of the last mean's class; -1: a mean below 1, no table
-    last_ident = np.int64(-1)  # the last class met, with its guide row, mean and lowest count
-    class_row = np.int64(0)
-    class_mean = 0.0
-    class_k_lo = np.int64(0)
-    zero_below = np.uint64(0)  # words below this draw 0 from the last mean's remainder
-    for first in range(start, lam.size, BLOCK_PIXELS):
-        last = min(first + BLOCK_PIXELS, lam.size)
-        # -------------------------------------- (1) shot noise, common case
-        n_general = 0
-        for i in range(first, last):
-            mean = lam[i]
-            if shot_key is None:
-                electrons_of[i - first] = np.float32(mean)
-                continue
-            if not (mean >= 0.0 and mean < np.inf):
-                return -1 - i  # NaN, inf or negative: refused by the caller
-            if guide is None or mean >= GAUSSIAN_ABOVE_E:
-                # Gaussian shot noise, and Poisson means beyond the tables.
+    word = np.empty(n_block, dtype=np.uint64)  # the shot noise's 64-bit word (counter 2i)
+    ident = np.empty(n_block, dtype=np.int64)  # class id, −1 for a mean outside [1, 256)
+    # The class's mean g: the mean with all but its top CLASS_BITS mantissa bits
+    # cut off, written as bits and read as float64 (no table to look up).
+    class_bits = np.empty(n_block, dtype=np.uint64)
+    class_mean = class_bits.view(np.float64)
+    class_k_lo = np.empty(n_block, dtype=np.int64)
+    entry = np.empty(n_block, dtype=np.int64)
+    index = np.empty(n_block, dtype=np.int64)
+    slow = np.empty(n_block, dtype=np.int64)  # the other pixels' places
+    electrons_of = np.empty(n_block, dtype=np.float32)
+    read_word = np.empty(n_block, dtype=np.uint64)
+    normal = np.empty(n_block, dtype=np.float32)
+    level_of = np.empty(n_block, dtype=np.int64)
+    need = np.empty(n_block, dtype=np.int64)  # what a pixel's shot noise needs beyond the common case
+    bin_place = np.empty(n_block, dtype=np.int64)  # pixels whose guide bin holds a CDF step
+    rest_place = np.empty(n_block, dtype=np.int64)  # pixels whose remainder draws more than 0
+    rare_place = np.empty(n_block, dtype=np.int64)  # means of 256 or more
+    rest_of = np.empty(n_block, dtype=np.float64)  # their remainders r, below 1
+    u_of = np.empty(n_block, dtype=np.float64)  # and uniforms
+    seq_p = np.empty(n_block, dtype=np.float64)  # and e^-r
+    for first in range(start, lam.size, n_block):
+        n = min(n_block, lam.size - first)
+        # ------------------------------------------------------ shot noise
+        if shot_key is None:
+            for j in range(n):
+                electrons_of[j] = np.float32(lam[first + j])
+        else:
+            n_bad = 0  # counted, not or-ed: LLVM vectorises a sum, not a boolean reduction
+            for j in range(n):  # vectorised: the words, the classes, NaN / inf / negative
+                i = first + j
                 z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + shot_key
                 z = (z ^ (z >> np.uint64(30))) * MIX1
                 z = (z ^ (z >> np.uint64(27))) * MIX2
-                word = (z ^ (z >> np.uint64(31))) >> np.uint64(32)
-                top = word >> np.uint64(16)
-                if top == 0:
-                    normal = z_low[word & np.uint64(0xFFFF)]
-                elif top == 0xFFFF:
-                    normal = z_high[word & np.uint64(0xFFFF)]
-                else:
-                    normal = z_body[top]
-                if guide is not None:
-                    electrons_of[i - first] = np.float32(max(0.0, mean + np.sqrt(mean) * np.float64(normal)))
-                else:
-                    mean32 = np.float32(mean)
-                    electrons_of[i - first] = normal * np.sqrt(mean32) + mean32
-                continue
-            if mean != last_mean:  # runs of equal means (a uniform background) skip this
-                last_mean = mean
-                one_lookup = mean < 256.0  # from 256 on, the remainder is split again
-                rest = mean
-                row = -1
-                if one_lookup and mean >= 1.0:
-                    ident = ((np.int64(bits_of[i] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
-                        (bits_of[i] >> MANTISSA_SHIFT) & CLASS_MASK)
-                    if ident != last_ident:  # a smooth gradient (glare, vignetting) keeps its class a while
-                        if slot[ident] < 0:
-                            return first  # a class without its table: built, then this block again
-                        last_ident = ident
-                        class_row = slot[ident] * TABLE_BINS
-                        class_mean = class_means[ident]
-                        class_k_lo = k_lo[ident]
-                    row = class_row
-                    rest = mean - class_mean
-                # u >= 1 - r, as words: u = w·2^-32 is exact, so it is w >= ceil((1 - r)·2^32).
-                zero_below = np.uint64(math.ceil((1.0 - rest) * _TWO_32)) if rest > 0.0 else np.uint64(_TWO_32)
-            if one_lookup:
-                # Pixel i's 32-bit words: the halves of the words of counters 2i and 2i + 1.
-                z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + shot_key
-                z = (z ^ (z >> np.uint64(30))) * MIX1
-                z = (z ^ (z >> np.uint64(27))) * MIX2
-                word64 = z ^ (z >> np.uint64(31))
-                if row >= 0:
-                    entry = guide[row + np.int64((word64 >> np.uint64(32)) >> BIN_SHIFT)]
-                    if entry < STRADDLE and (word64 & LOW32) < zero_below:
-                        electrons_of[i - first] = np.float32(class_k_lo + np.int64(entry))
-                        continue
-                elif (word64 >> np.uint64(32)) < zero_below:  # a mean below 1 drawing 0
-                    electrons_of[i - first] = np.float32(0.0)
-                    continue
-            general[n_general] = i
-            n_general += 1
-        # -------------------------------------- (2) shot noise, general method
-        if guide is not None:
-            for j in range(n_general):
-                i = general[j]
+                word[j] = z ^ (z >> np.uint64(31))
                 mean = lam[i]
-                z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + shot_key
-                z = (z ^ (z >> np.uint64(30))) * MIX1
-                z = (z ^ (z >> np.uint64(27))) * MIX2
-                word64 = z ^ (z >> np.uint64(31))
-                word = word64 >> np.uint64(32)
-                total = 0
-                part = 0
-                rest = mean
-                while rest >= 1.0:  # once for means below 256, up to three times above
-                    if part > 0:  # a remainder: its class by frexp (no bit view of a scalar)
-                        fraction, exponent = math.frexp(rest)
-                        ident = np.int64(exponent - 1) * (1 << CLASS_BITS) + np.int64(
-                            (fraction * 2.0 - 1.0) * (1 << CLASS_BITS))
-                    else:
-                        ident = ((np.int64(bits_of[i] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
-                            (bits_of[i] >> MANTISSA_SHIFT) & CLASS_MASK)
-                    if slot[ident] < 0:
-                        return first  # a class without its table: built, then this block again
-                    entry = guide[slot[ident] * TABLE_BINS + np.int64(word >> BIN_SHIFT)]
-                    k = k_lo[ident] + np.int64(entry & K_MASK)
-                    if entry & STRADDLE:
-                        u = np.float64(word) * WORD_SCALE
-                        base = cdf_start[ident]
-                        lo = np.int64(entry & K_MASK)
-                        hi = cdf_size[ident] - 1
-                        while lo < hi:
-                            mid = (lo + hi) // 2
-                            if cdf[base + mid] <= u:
-                                lo = mid + 1
-                            else:
-                                hi = mid
-                        k = k_lo[ident] + lo
-                    total += k
-                    rest -= class_means[ident]
-                    part += 1
-                    if part == 2:
-                        z = (np.uint64(i) * np.uint64(2) + np.uint64(2)) * GAMMA + shot_key
-                        z = (z ^ (z >> np.uint64(30))) * MIX1
-                        z = (z ^ (z >> np.uint64(27))) * MIX2
-                        word64 = z ^ (z >> np.uint64(31))
-                        word = word64 >> np.uint64(32)
-                    else:
-                        word = word64 & LOW32
-                if rest > 0.0 and word >= np.uint64(math.ceil((1.0 - rest) * _TWO_32)):
-                    # Sequential inversion of the remainder's Poisson CDF.
-                    u = np.float64(word) * WORD_SCALE
+                n_bad += np.int64(not ((mean >= 0.0) & (mean < np.inf)))
+                bits = bits_of[i]
+                c = ((np.int64(bits >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
+                    (bits >> MANTISSA_SHIFT) & CLASS_MASK)
+                ident[j] = c if (mean >= 1.0) & (mean < 256.0) else np.int64(-1)
+                class_bits[j] = bits & KEEP_CLASS_BITS
+            if n_bad:
+                return -1  # refused by the caller
+            if guide is None:
+                # Gaussian shot noise, N(λ, λ) in float32: λ + √λ·z.
+                n_tail = 0
+                for j in range(n):
+                    top = word[j] >> np.uint64(48)
+                    normal[j] = z_body[np.int64(top)]
+                    n_tail += np.int64((top == 0) | (top == 0xFFFF))  # the two outer bins (2 words in 65,536)
+                if n_tail:  # their tails
+                    for j in range(n):
+                        top = word[j] >> np.uint64(48)
+                        fine = (word[j] >> np.uint64(32)) & np.uint64(0xFFFF)
+                        if top == 0:
+                            normal[j] = z_low[fine]
+                        elif top == 0xFFFF:
+                            normal[j] = z_high[fine]
+                for j in range(n):  # vectorised
+                    mean32 = np.float32(lam[first + j])
+                    electrons_of[j] = normal[j] * np.sqrt(mean32) + mean32
+            else:
+                n_missing = 0
+                for j in range(n):  # the guide entry's place, and the class's lowest count
+                    c = ident[j]
+                    cc = max(c, np.int64(0))
+                    row = slot[cc]
+                    n_missing += np.int64((c >= 0) & (row < 0))
+                    index[j] = max(row, np.int64(0)) * TABLE_BINS + np.int64((word[j] >> np.uint64(32)) >> BIN_SHIFT)
+                    class_k_lo[j] = k_lo[cc]
+                if n_missing:
+                    return first  # a class without its table: built, then this block again
+                for j in range(n):
+                    entry[j] = guide[index[j]]
+                for j in range(n):  # vectorised: the common case's count, and what else each pixel needs
+                    mean = lam[first + j]
+                    classed = ident[j] >= 0
+                    rest = mean - class_mean[j] if classed else mean
+                    # u < 1 − r as words: w < ceil((1 − r)·2^32) is w < (1 − r)·2^32 for an integer w.
+                    bound = (1.0 - rest) * _TWO_32
+                    w = word[j]
+                    e = entry[j]
+                    # 1: a CDF step inside the guide's bin; 2: the remainder draws more than 0;
+                    # 4: a mean of 256 or more (several classes, or beyond the tables).
+                    need[j] = ((classed & (e >= np.int64(STRADDLE))) * 1
+                               + ((classed & (np.float64(w & LOW32) >= bound))
+                                  | ((mean < 1.0) & (np.float64(w >> np.uint64(32)) >= bound))) * 2
+                               + (~classed & (mean >= 1.0)) * 4)
+                    electrons_of[j] = np.float32(class_k_lo[j] + (e & np.int64(K_MASK))) if classed else np.float32(0.0)
+                m = 0
+                for j in range(n):
+                    slow[m] = j
+                    m += need[j] != 0
+                n_bin = n_rest = n_rare = 0
+                for s in range(m):  # sorted by what they need, so that each loop below branches alike
+                    j = slow[s]
+                    classed = ident[j] >= 0
+                    bin_place[n_bin] = j
+                    n_bin += (need[j] & 1) != 0
+                    rest_place[n_rest] = j
+                    rest_of[n_rest] = lam[first + j] - class_mean[j] if classed else lam[first + j]
+                    u_of[n_rest] = np.float64(word[j] & LOW32 if classed else word[j] >> np.uint64(32)) * WORD_SCALE
+                    n_rest += (need[j] & 2) != 0
+                    rare_place[n_rare] = j
+                    n_rare += (need[j] & 4) != 0
+                for s in range(n_bin):  # the count inside the bin: the first whose CDF exceeds u
+                    j = bin_place[s]
+                    c = ident[j]
+                    u = np.float64(word[j] >> np.uint64(32)) * WORD_SCALE
+                    base = cdf_start[c]
+                    hi = cdf_size[c] - 1
+                    lo = entry[j] & np.int64(K_MASK)
+                    while lo < hi and cdf[base + lo] <= u:  # a bin holds a step or two
+                        lo += 1
+                    electrons_of[j] = np.float32(class_k_lo[j] + lo)
+                for s in range(n_rare):  # means of 256 or more: the tables of up to three classes
+                    j = rare_place[s]
+                    i = first + j
+                    mean = lam[i]
+                    word64 = word[j]
+                    if mean >= GAUSSIAN_ABOVE_E:
+                        # Poisson means beyond the tables: N(λ, λ).
+                        value = word64 >> np.uint64(32)
+                        top = value >> np.uint64(16)
+                        if top == 0:
+                            z_value = z_low[value & np.uint64(0xFFFF)]
+                        elif top == 0xFFFF:
+                            z_value = z_high[value & np.uint64(0xFFFF)]
+                        else:
+                            z_value = z_body[top]
+                        electrons_of[j] = np.float32(max(0.0, mean + np.sqrt(mean) * np.float64(z_value)))
+                        continue
+                    u_word = word64 >> np.uint64(32)
+                    total = 0
+                    part = 0
+                    rest = mean
+                    while rest >= 1.0:
+                        if part > 0:  # a remainder: its class by frexp (no bit view of a scalar)
+                            fraction, exponent = math.frexp(rest)
+                            c = np.int64(exponent - 1) * (1 << CLASS_BITS) + np.int64(
+                                (fraction * 2.0 - 1.0) * (1 << CLASS_BITS))
+                        else:
+                            c = ((np.int64(bits_of[i] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
+                                (bits_of[i] >> MANTISSA_SHIFT) & CLASS_MASK)
+                        if slot[c] < 0:
+                            return first  # a class without its table: built, then this block again
+                        g = guide[slot[c] * TABLE_BINS + np.int64(u_word >> BIN_SHIFT)]
+                        lo = np.int64(g & K_MASK)
+                        if g & STRADDLE:
+                            u = np.float64(u_word) * WORD_SCALE
+                            base = cdf_start[c]
+                            hi = cdf_size[c] - 1
+                            while lo < hi and cdf[base + lo] <= u:
+                                lo += 1
+                        total += k_lo[c] + lo
+                        rest -= class_means[c]
+                        part += 1
+                        if part == 2:
+                            z = (np.uint64(i) * np.uint64(2) + np.uint64(2)) * GAMMA + shot_key
+                            z = (z ^ (z >> np.uint64(30))) * MIX1
+                            z = (z ^ (z >> np.uint64(27))) * MIX2
+                            word64 = z ^ (z >> np.uint64(31))
+                            u_word = word64 >> np.uint64(32)
+                        else:
+                            u_word = word64 & LOW32
+                    electrons_of[j] = np.float32(total)
+                    if rest > 0.0 and u_word >= np.uint64(math.ceil((1.0 - rest) * _TWO_32)):
+                        rest_place[n_rest] = j  # its remainder joins the others'
+                        rest_of[n_rest] = rest
+                        u_of[n_rest] = np.float64(u_word) * WORD_SCALE
+                        n_rest += 1
+                for s in range(n_rest):  # e^-r by the fixed Horner polynomial
                     p = exp_coefficients[0]
-                    for c in range(1, exp_coefficients.size):
-                        p = p * rest + exp_coefficients[c]
+                    for k in range(1, exp_coefficients.size):
+                        p = p * rest_of[s] + exp_coefficients[k]
+                    seq_p[s] = p
+                for s in range(n_rest):  # sequential inversion of the remainder's Poisson CDF
+                    rest = rest_of[s]
+                    u = u_of[s]
+                    p = seq_p[s]
                     running = p
+                    count = 0
                     for step in range(1, MAX_SMALL_K + 1):
                         if u < running:
                             break
-                        total += 1
+                        count += 1
                         p = p * rest / np.float64(step)
                         running = running + p
-                electrons_of[i - first] = np.float32(total)
-        # -------------------------------------- (3) full well, read noise, ADC, output
-        for i in range(first, last):
-            electrons = electrons_of[i - first]
+                    # The table's count and the remainder's, both below 2^24, add exactly in float32.
+                    electrons_of[rest_place[s]] += np.float32(count)
+        # ------------------------------- full well, read noise, ADC, output
+        if read_sigma is not None:
+            n_tail = 0
+            for j in range(n):  # vectorised
+                z = (np.uint64(first + j) * np.uint64(2) + np.uint64(1)) * GAMMA + read_key
+                z = (z ^ (z >> np.uint64(30))) * MIX1
+                z = (z ^ (z >> np.uint64(27))) * MIX2
+                value = (z ^ (z >> np.uint64(31))) >> np.uint64(32)
+                read_word[j] = value
+                top = value >> np.uint64(16)
+                n_tail += np.int64((top == 0) | (top == 0xFFFF))  # the two outer bins (2 words in 65,536)
+            for j in range(n):
+                normal[j] = z_body[np.int64(read_word[j] >> np.uint64(16))]
+            if n_tail:  # their tails
+                for j in range(n):
+                    top = read_word[j] >> np.uint64(16)
+                    if top == 0:
+                        normal[j] = z_low[read_word[j] & np.uint64(0xFFFF)]
+                    elif top == 0xFFFF:
+                        normal[j] = z_high[read_word[j] & np.uint64(0xFFFF)]
+        for j in range(n):  # vectorised: each step the chain takes, in its order
+            electrons = electrons_of[j]
             if full_well is not None:
                 electrons = min(max(electrons, np.float32(0.0)), full_well)
             if read_sigma is not None:
-                z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + read_key
-                z = (z ^ (z >> np.uint64(30))) * MIX1
-                z = (z ^ (z >> np.uint64(27))) * MIX2
-                word = (z ^ (z >> np.uint64(31))) >> np.uint64(32)
-                top = word >> np.uint64(16)
-                if top == 0:
-                    normal = z_low[word & np.uint64(0xFFFF)]
-                elif top == 0xFFFF:
-                    normal = z_high[word & np.uint64(0xFFFF)]
-                else:
-                    normal = z_body[top]
-                electrons = normal * read_sigma + electrons
+                electrons = normal[j] * read_sigma + electrons
             if adc is None:
-                out[i] = electrons
+                out[first + j] = electrons
             else:
                 level = electrons * adc[0] + adc[1]
-                level = min(max(level, np.float32(0.0)), adc[2])
-                if lut is None:
-                    out[i] = np.uint16(level)
-                else:
-                    out[i] = lut[np.uint16(level)]
+                level_of[j] = np.int64(np.uint16(min(max(level, np.float32(0.0)), adc[2])))
+        if adc is not None:
+            if lut is None:
+                for j in range(n):
+                    out[first + j] = np.uint16(level_of[j])
+            else:
+                for j in range(n):
+                    out[first + j] = lut[level_of[j]]
     return lam.size
 
 
@@ -352,6 +427,8 @@ def _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, l
     start = 0
     while start < n:
         guide, *tables = TABLES.arrays()
+        if guide.size == 0:  # the kernel reads a row of the guide for every pixel, and uses those of built classes
+            guide = _NO_GUIDE
         stop = int(compiled(
             lam, start,
             None if shot is None else np.uint64(keys.shot),

@@ -11,8 +11,9 @@ below λ/256. Each class has a table, built once per process and kept:
   u, and the table gives the count at the bin's start (16 bits: its offset
   from the class's lowest tabled count, 2 KB per class, so that the tables
   of a frame whose every pixel has its own mean stay in cache), flagged
-  where a step of the CDF lies inside the bin; only then does a binary
-  search over the class's CDF find the exact step. The CDF is summed from the log pmf over
+  where a step of the CDF lies inside the bin; only then does a search over
+  the class's CDF find the exact step (binary in numpy, forward from the
+  bin's start in the compiled kernel: the same count). The CDF is summed from the log pmf over
   g ± (12√g + 12), outside which the probability is below 1e-30.
 * The remainder λ − g is split again the same way while it is at least 1
   (for λ below 256 it already is not), and a remainder r < 1 is drawn by
@@ -58,7 +59,7 @@ STRADDLE = np.uint16(1 << 15)
 K_MASK = np.uint16((1 << 15) - 1)
 MANTISSA_SHIFT = np.uint64(52 - CLASS_BITS)
 CLASS_MASK = np.uint64((1 << CLASS_BITS) - 1)
-_KEEP_CLASS_BITS = ~np.uint64((1 << (52 - CLASS_BITS)) - 1)
+KEEP_CLASS_BITS = ~np.uint64((1 << (52 - CLASS_BITS)) - 1)
 EXPONENT_SHIFT = np.uint64(52)
 EXPONENT_BIAS = 1023
 BIN_SHIFT = np.uint64(32 - BIN_BITS)
@@ -184,7 +185,7 @@ def split_class(lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     bits = lam.view(np.uint64)
     exponent = (bits >> EXPONENT_SHIFT).astype(np.int64) - EXPONENT_BIAS
     ids = (exponent << CLASS_BITS) | ((bits >> MANTISSA_SHIFT) & CLASS_MASK).astype(np.int64)
-    return ids, (bits & _KEEP_CLASS_BITS).view(np.float64)
+    return ids, (bits & KEEP_CLASS_BITS).view(np.float64)
 
 
 def exp_neg(r: np.ndarray) -> np.ndarray:

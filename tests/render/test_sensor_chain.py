@@ -111,6 +111,38 @@ def test_blocks_and_tables_built_mid_frame_keep_the_numpy_twins_bytes(monkeypatc
     assert np.array_equal(compiled, _chain_numpy(lam, "poisson", keys, 5e4, 2.0, adc, lut))
 
 
+@pytest.mark.parametrize("shot", ["poisson", "gaussian"])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_every_path_of_the_compiled_shot_noise_is_the_twins(shot, seed):
+    """Means that take every way through the kernel, shuffled across block boundaries.
+
+    Means below 1 (a remainder drawn alone), class means exactly (no
+    remainder), means in [1, 256) (guide bins with and without a CDF step,
+    remainders that draw 0 or more), 256 and above (several classes), beyond
+    the tables (the normal approximation), and runs of one mean.
+    """
+    rng = np.random.default_rng(seed)
+    n = 3 * BLOCK_PIXELS + 17
+    parts = [rng.uniform(0.0, 1.0, n // 8), np.full(n // 8, 4.0), rng.uniform(1.0, 256.0, n // 4),
+             np.full(n // 8, 31.99), rng.uniform(256.0, 1e5, n // 8), np.full(n // 16, 2.0**21), np.zeros(n // 16)]
+    lam = rng.permutation(np.concatenate(parts + [rng.uniform(0.0, 60.0, n - sum(p.size for p in parts))]))
+    keys = ChainKeys(np.uint64(seed * 1000 + 1), np.uint64(seed * 1000 + 2))
+    adc, lut = Adc(0.3, 64, 12), gray8_lut(64, 12)
+    for kwargs in ({}, {"full_well_e": 2e5, "read_sigma_e": 3.0, "adc": adc, "lut": lut}, {"read_sigma_e": 0.5, "adc": adc}):
+        numpy_twin = _chain_numpy(lam, shot, keys, kwargs.get("full_well_e"), kwargs.get("read_sigma_e"),
+                                  kwargs.get("adc"), kwargs.get("lut"))
+        assert np.array_equal(run_chain(lam, shot, keys, **kwargs), numpy_twin), kwargs
+
+
+@pytest.mark.parametrize("shot", ["poisson", "gaussian"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -1e-300, -3.0])
+def test_a_mean_that_is_not_a_finite_non_negative_number_is_refused(shot, bad):
+    lam = np.full(2 * BLOCK_PIXELS, 5.0)
+    lam[BLOCK_PIXELS + 7] = bad
+    with pytest.raises(ValueError, match="finite and non-negative"):
+        run_chain(lam, shot, ChainKeys(np.uint64(1), np.uint64(2)))
+
+
 def test_photon_transfer_slope_is_the_gain():
     """Flat fields through the whole chain: variance against mean has slope K (EMVA 1288)."""
     gain = 0.5
