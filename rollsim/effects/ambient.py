@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from rollsim.effects.base import Effect, NoParams, StageRun, on_box
 
 if TYPE_CHECKING:
@@ -32,6 +34,10 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
         fp = state.led_footprint
         correction = static_correction if state.footprint is None else correction_of(fp)
         factor = state.ambient_row_factor  # flicker
+        if factor is None and state.means is not None and np.ndim(background) == 0 and state.means.background is None:
+            # Joins the LED's light as a part: the frame is written in one pass.
+            state.means = state.means.with_ambient(float(background), fp.rows, fp.cols, correction)
+            return
         if factor is None:
             state.electrons += background
         else:
@@ -48,6 +54,6 @@ EFFECT = Effect(
     params=NoParams,
     slot="signal",
     build_stage=build_stage,
-    reads=("state.footprint", "state.ambient_row_factor", "setup.background_e_per_s", "setup.face_e_per_s"),
-    writes=("state.electrons",),
+    reads=("state.footprint", "state.ambient_row_factor", "state.means", "setup.background_e_per_s", "setup.face_e_per_s"),
+    writes=("state.electrons", "state.means"),
 )

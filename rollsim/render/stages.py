@@ -27,6 +27,7 @@ import numpy as np
 
 from rollsim.effects.base import SLOTS, Stage, on_box
 from rollsim.errors import RollsimError
+from rollsim.render.means import SeparableMeans
 from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.cfa import demosaic
 from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_chain
@@ -75,12 +76,13 @@ def led_signal_stage(setup: SceneSetup) -> Stage:
 
     def run(state):
         fp = static if state.footprint is None else state.footprint
-        electrons = np.zeros(shape)
         if fp.coverage.size:
-            row_signal = scalar_rate * state.led_exposure_s[fp.rows]
-            # Straight into the frame: no footprint-sized temporary (~9 MB at 1080p).
-            np.multiply(coverage_of(fp), row_signal[:, None], out=electrons[fp.rows, fp.cols])
-        state.electrons = electrons
+            # As parts (rollsim.render.means): the frame is written once the
+            # ambient light has joined them, or when a stage reads it.
+            state.means = SeparableMeans(shape, fp.rows, fp.cols, coverage_of(fp),
+                                         scalar_rate * state.led_exposure_s[fp.rows])
+        else:
+            state.electrons = np.zeros(shape)
 
     return Stage("led_signal", "signal", run)
 

@@ -10,6 +10,8 @@ import numpy as np
 from rollsim.counter_rng import stream_key
 from rollsim.seeds import rng as named_rng
 
+from rollsim.render.means import SeparableMeans, materialize
+
 if TYPE_CHECKING:
     from rollsim.optics.footprint import Footprint
     from rollsim.render.setup import SceneSetup
@@ -40,7 +42,13 @@ class FrameState:
     led_exposure_s : ndarray, shape (H,)
         ∫ s dt over each row's exposure window, in seconds at level 1.
     electrons : ndarray of float64, shape (H, W)
-        Mean photo-electrons, then electrons after each noise stage.
+        Mean photo-electrons, then electrons after each noise stage. While
+        ``means`` holds them as parts, reading this writes the frame (once)
+        and setting it drops the parts.
+    means : SeparableMeans or None
+        The mean electrons as their parts (:mod:`rollsim.render.means`), not
+        written into a frame yet: set by the LED's signal and the ambient
+        light, so that the frame is written in one pass.
     dn : ndarray of uint16, shape (H, W)
         ADC output.
     image : ndarray
@@ -60,12 +68,25 @@ class FrameState:
     index: int
     start_s: float = 0.0
     led_exposure_s: np.ndarray = field(default_factory=_not_yet)
-    electrons: np.ndarray = field(default_factory=_not_yet)
+    _electrons: np.ndarray = field(default_factory=_not_yet)
+    means: SeparableMeans | None = None
     dn: np.ndarray = field(default_factory=_not_yet)
     image: np.ndarray = field(default_factory=_not_yet)
     footprint: Footprint | None = None
     led_rows: tuple | None = None
     ambient_row_factor: np.ndarray | None = None
+
+    @property
+    def electrons(self) -> np.ndarray:
+        if self.means is not None:
+            self._electrons = materialize(self.means)
+            self.means = None
+        return self._electrons
+
+    @electrons.setter
+    def electrons(self, value: np.ndarray) -> None:
+        self._electrons = value
+        self.means = None
 
     @property
     def led_footprint(self) -> Footprint:
