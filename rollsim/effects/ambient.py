@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from rollsim.effects.base import Effect, NoParams, StageRun, on_box
 
 if TYPE_CHECKING:
@@ -34,9 +32,9 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
         fp = state.led_footprint
         correction = static_correction if state.footprint is None else correction_of(fp)
         factor = state.ambient_row_factor  # flicker
-        if factor is None and state.means is not None and np.ndim(background) == 0 and state.means.background is None:
+        if factor is None and state.means is not None and state.means.background is None:
             # Joins the LED's light as a part: the frame is written in one pass.
-            state.means = state.means.with_ambient(float(background), fp.rows, fp.cols, correction)
+            state.means = state.means.with_ambient(background, fp.rows, fp.cols, correction)
             return
         if factor is None:
             state.electrons += background

@@ -49,26 +49,29 @@ def fixed_point_kernel(kernel: np.ndarray) -> np.ndarray:
     return weights / scale
 
 
-def _filtered(values: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> np.ndarray:
-    """8-bit ``values`` (float32) convolved with the separable Gaussian, float32 (edges mirrored).
+def _blurred(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> np.ndarray:
+    """8-bit ``image`` convolved with the separable Gaussian, exactly, as float64 (edges mirrored).
 
-    Exact before the final rounding to float32, so the same bits on every
-    CPU: OpenCV's float filters fuse multiply-adds where the CPU has them,
-    which rounds differently. With integer pixels up to 255 and weights that
-    are multiples of 2^-16 summing to 1, every product and partial sum of
-    both passes is a multiple of 2^-32 below 2^40, exact in float64 in any
-    order.
+    Exact, so the same bits on every CPU: OpenCV's float filters fuse
+    multiply-adds where the CPU has them, which rounds differently. With
+    integer pixels up to 255 and weights that are multiples of 2^-16
+    summing to 1, every product and partial sum of both passes is a
+    multiple of 2^-32 below 2^40, exact in float64 in any order.
     """
     import cv2
 
-    filtered = cv2.sepFilter2D(values.astype(np.float64), cv2.CV_64F, fixed_point_kernel(gaussian_kernel(sigma_cols_px)),
-                               fixed_point_kernel(gaussian_kernel(sigma_rows_px)), borderType=cv2.BORDER_REFLECT_101)
-    return filtered.astype(np.float32)
+    if image.dtype != np.uint8:
+        raise ValueError(f"the ISP filters take 8-bit images, got {image.dtype}")
+    return cv2.sepFilter2D(image, cv2.CV_64F, fixed_point_kernel(gaussian_kernel(sigma_cols_px)),
+                           fixed_point_kernel(gaussian_kernel(sigma_rows_px)), borderType=cv2.BORDER_REFLECT_101)
 
 
 def _to_uint8(values: np.ndarray) -> np.ndarray:
-    np.clip(values, 0.0, 255.0, out=values)
-    return np.rint(values).astype(np.uint8)
+    """float64 values clipped to 0…255 and rounded half to even, as uint8 (OpenCV's saturating cast, in one pass)."""
+    import cv2
+
+    # A scalar second operand (OpenCV's own overload; its stubs know only arrays).
+    return np.asarray(cv2.add(values, 0.0, dtype=cv2.CV_8U))  # type: ignore[call-overload]
 
 
 def smooth(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float = 0.0) -> np.ndarray:
@@ -86,7 +89,7 @@ def smooth(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float = 0.0) 
     -------
     ndarray of uint8, the shape of ``image``
     """
-    return _to_uint8(_filtered(image.astype(np.float32), sigma_rows_px, sigma_cols_px))
+    return _to_uint8(_blurred(image, sigma_rows_px, sigma_cols_px))
 
 
 def sharpen(image: np.ndarray, amount: float, sigma_px: float) -> np.ndarray:
@@ -106,7 +109,8 @@ def sharpen(image: np.ndarray, amount: float, sigma_px: float) -> np.ndarray:
     """
     if not (np.isfinite(amount) and amount >= 0):
         raise ValueError(f"amount must be a finite number >= 0, got {amount!r}")
-    values = image.astype(np.float32)
-    detail = values - _filtered(values, sigma_px, sigma_px)
-    values += np.float32(amount) * detail
+    # I + a·(I − G) in float64: the detail I − G is exact, then two roundings.
+    values = np.subtract(image, _blurred(image, sigma_px, sigma_px))
+    values *= amount
+    values += image
     return _to_uint8(values)

@@ -41,8 +41,9 @@ class SeparableMeans:
         The LED's light on its box (relative; per-pixel rates folded in).
     row_signal : ndarray of float64, shape (rows,)
         Electrons per unit of coverage in each row of the box.
-    background : float or None
-        Electrons of the ambient light on every pixel, or None without it.
+    background : float, ndarray of float64 of shape ``shape``, or None
+        Electrons of the ambient light on each pixel (one level, or a map:
+        vignetting, a colour filter), or None without ambient light.
     face_rows, face_cols : slice or None
         The box of ``correction``.
     correction : ndarray of float64 or None
@@ -55,18 +56,21 @@ class SeparableMeans:
     cols: slice
     coverage: np.ndarray
     row_signal: np.ndarray
-    background: Optional[float] = None
+    background: Optional[float | np.ndarray] = None
     face_rows: Optional[slice] = None
     face_cols: Optional[slice] = None
     correction: Optional[np.ndarray] = None
 
-    def with_ambient(self, background: float, face_rows: slice, face_cols: slice,
+    def with_ambient(self, background: float | np.ndarray, face_rows: slice, face_cols: slice,
                      correction: np.ndarray) -> SeparableMeans:
-        """These means plus a uniform background and a correction on the face's box."""
+        """These means plus a background (a level or a map) and a correction on the face's box."""
         if self.background is not None:
             raise ValueError("the means already hold an ambient background")
-        return replace(self, background=float(background), face_rows=face_rows, face_cols=face_cols,
-                       correction=correction)
+        if np.ndim(background) == 0:
+            background = float(background)
+        elif np.shape(background) != self.shape:
+            raise ValueError(f"a background map of shape {np.shape(background)} on a frame of {self.shape}")
+        return replace(self, background=background, face_rows=face_rows, face_cols=face_cols, correction=correction)
 
 
 def materialize(means: SeparableMeans) -> np.ndarray:
@@ -80,8 +84,11 @@ def materialize(means: SeparableMeans) -> np.ndarray:
     if means.correction is not None and means.face_rows is not None and means.face_cols is not None:
         face = _box(means.face_rows, means.face_cols, means.correction)
         correction = np.ascontiguousarray(means.correction, dtype=np.float64)
+    level, level_map = means.background, None
+    if isinstance(level, np.ndarray):
+        level, level_map = None, np.ascontiguousarray(level, dtype=np.float64)
     compiled(out, box, np.ascontiguousarray(means.coverage, dtype=np.float64),
-             np.ascontiguousarray(means.row_signal, dtype=np.float64), means.background, face, correction)
+             np.ascontiguousarray(means.row_signal, dtype=np.float64), level, level_map, face, correction)
     return out
 
 
@@ -105,27 +112,34 @@ def _materialize_numpy(means: SeparableMeans) -> np.ndarray:
 
 
 @kernel
-def _fill_kernel(out, box, coverage, row_signal, background, face, correction):
-    # Row by row (a row stays in the cache): the base level, the LED's box,
-    # then the face's correction, each element with the stages' operations.
+def _fill_kernel(out, box, coverage, row_signal, level, level_map, face, correction):
+    # Row by row (a row stays in the cache): the base level (0, or 0 + the
+    # background, one level or a map's), the LED's box, then the face's
+    # correction, each element with the stages' operations.
     first_row, n_rows, first_col, n_cols = box
     height, width = out.shape
     for y in range(height):
-        if background is None:
+        if level_map is not None:
             for x in range(width):
-                out[y, x] = 0.0
+                out[y, x] = 0.0 + level_map[y, x]
+        elif level is not None:
+            for x in range(width):
+                out[y, x] = 0.0 + level
         else:
             for x in range(width):
-                out[y, x] = 0.0 + background
+                out[y, x] = 0.0
         r = y - first_row
         if 0 <= r < n_rows:
             signal = row_signal[r]
-            if background is None:
+            if level_map is not None:
                 for x in range(n_cols):
-                    out[y, first_col + x] = coverage[r, x] * signal
+                    out[y, first_col + x] = coverage[r, x] * signal + level_map[y, first_col + x]
+            elif level is not None:
+                for x in range(n_cols):
+                    out[y, first_col + x] = coverage[r, x] * signal + level
             else:
                 for x in range(n_cols):
-                    out[y, first_col + x] = coverage[r, x] * signal + background
+                    out[y, first_col + x] = coverage[r, x] * signal
         if correction is not None:
             face_row = y - face[0]
             if 0 <= face_row < face[1]:

@@ -132,6 +132,41 @@ def test_filters_keep_flat_images_and_conserve_the_mean():
     assert sharpen(noise, 0.3, 1.0).mean() == pytest.approx(noise.mean(), abs=0.6)
 
 
+def exact_blur(image, sigma_rows, sigma_cols):
+    """The fixed-point filter in integers: Σ w_i·w_j·I over 2^32, edges mirrored (reflect-101), as float64."""
+    from rollsim.isp.filters import WEIGHT_BITS, fixed_point_kernel
+
+    wy = (fixed_point_kernel(gaussian_kernel(sigma_rows)) * 2**WEIGHT_BITS).astype(np.int64)
+    wx = (fixed_point_kernel(gaussian_kernel(sigma_cols)) * 2**WEIGHT_BITS).astype(np.int64)
+    ry, rx = wy.size // 2, wx.size // 2
+    padded = np.pad(image.astype(np.int64), ((ry, ry), (rx, rx)), mode="reflect")
+    rows = sum(w * padded[i:i + image.shape[0], :] for i, w in enumerate(wy))
+    both = sum(w * rows[:, j:j + image.shape[1]] for j, w in enumerate(wx))
+    return both / float(2 ** (2 * WEIGHT_BITS))  # exact: below 2^40 over a power of two
+
+
+@pytest.mark.parametrize(("sigma_rows", "sigma_cols"), [(1.5, 0.0), (1.0, 1.0), (0.6, 2.3)])
+def test_the_blur_is_exact_in_fixed_point(sigma_rows, sigma_cols):
+    """The same bits on every CPU: every product and sum of the two passes is exact."""
+    from rollsim.isp.filters import _blurred
+
+    image = np.random.default_rng(4).integers(0, 256, (37, 53), dtype=np.uint8)
+    assert _blurred(image, sigma_rows, sigma_cols).tobytes() == exact_blur(image, sigma_rows, sigma_cols).tobytes()
+
+
+def test_the_8_bit_rounding_is_half_to_even_and_saturates():
+    from rollsim.isp.filters import _to_uint8
+
+    values = np.array([[0.5, 1.5, 2.5, -0.5, -7.0, 254.5, 255.5, 300.0, 7.5000001, 7.4999999]])
+    assert _to_uint8(values).tolist() == [[0, 2, 2, 0, 0, 254, 255, 255, 8, 7]]
+
+
+@pytest.mark.parametrize("filter_", [lambda image: smooth(image, 1.0), lambda image: sharpen(image, 0.5, 1.0)])
+def test_the_filters_take_8_bit_images_only(filter_):
+    with pytest.raises(ValueError, match="8-bit"):
+        filter_(np.zeros((8, 8), dtype=np.float32))
+
+
 def test_gaussian_kernel_is_normalised_and_symmetric():
     for sigma in (0.0, 0.3, 1.0, 7.5):
         k = gaussian_kernel(sigma)

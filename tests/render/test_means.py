@@ -23,14 +23,14 @@ def stagewise(means: SeparableMeans) -> np.ndarray:
     return out
 
 
-def random_means(rng, shape, light, face, background=True):
+def random_means(rng, shape, light, face, background="level"):
     (r0, r1), (c0, c1) = light
     means = SeparableMeans(shape, slice(r0, r1), slice(c0, c1), rng.random((r1 - r0, c1 - c0)) * 3.0,
                            rng.random(r1 - r0) * 40.0)
     if background:
         (f0, f1), (g0, g1) = face
-        means = means.with_ambient(float(rng.random() * 7.0), slice(f0, f1), slice(g0, g1),
-                                   rng.standard_normal((f1 - f0, g1 - g0)))
+        level = rng.random() * 7.0 if background == "level" else rng.random(shape) * 7.0
+        means = means.with_ambient(level, slice(f0, f1), slice(g0, g1), rng.standard_normal((f1 - f0, g1 - g0)))
     return means
 
 
@@ -44,7 +44,7 @@ CASES = [
 
 
 @pytest.mark.parametrize(("shape", "light", "face"), CASES)
-@pytest.mark.parametrize("background", [True, False])
+@pytest.mark.parametrize("background", ["level", "map", None])
 def test_the_compiled_pass_writes_the_stages_bytes(shape, light, face, background):
     means = random_means(np.random.default_rng(len(light) + shape[0]), shape, light, face, background)
     expected = stagewise(means)
@@ -63,10 +63,13 @@ def test_a_box_and_its_values_must_agree():
         materialize(means)
 
 
-def test_ambient_joins_the_parts_once():
+def test_ambient_joins_the_parts_once_with_a_level_or_a_map_of_the_frame():
     means = random_means(np.random.default_rng(1), (20, 30), ((2, 9), (3, 12)), ((2, 9), (3, 12)))
     with pytest.raises(ValueError, match="already"):
         means.with_ambient(1.0, slice(0, 1), slice(0, 1), np.zeros((1, 1)))
+    bare = random_means(np.random.default_rng(1), (20, 30), ((2, 9), (3, 12)), None, background=None)
+    with pytest.raises(ValueError, match="shape"):
+        bare.with_ambient(np.ones((30, 20)), slice(0, 1), slice(0, 1), np.zeros((1, 1)))
 
 
 def test_reading_the_electrons_writes_the_frame_once_and_setting_them_drops_the_parts():
