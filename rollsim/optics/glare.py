@@ -20,22 +20,26 @@ uniform background, which a kernel of unit mass leaves uniform; the halo of
 an LED, thousands of times brighter than its surroundings, is what the
 camera shows.
 
-Exactness. The halo is computed by one linear (zero-padded) FFT convolution
-of the LED's light with the kernel over every offset the frame needs, in
-float32 (the halo's relative error is ~1e-7); the unscattered part is added
-apart, at full precision, so the LED's sharp image is untouched. The
-kernel's mass within its radius R is 1 − η (1 + R²/r₀²)^(1−β): the light
-scattered further out is lost past the frame's edge, as on a sensor.
-The kernel spans every offset between a lit pixel and the frame: at 1080p
-about 2161 × 3841 pixels, convolved once per scene in about 0.1 s.
+Exactness. The halo is one FFT convolution of the LED's light with the
+kernel over every offset the frame needs, in float32 (the halo's relative
+error is ~1e-7; tested against the linear convolution in float64); the
+unscattered part is added apart, at full precision, so the LED's sharp
+image is untouched. The kernel's mass within its radius R is
+1 − η (1 + R²/r₀²)^(1−β): the light scattered further out is lost past the
+frame's edge, as on a sensor. The kernel spans every offset between a lit
+pixel and the frame: at 1080p about 1391 × 2231 pixels for paper-default's
+LED, convolved once per scene in about 0.06 s.
 
 The frames carry these float32 bits: a convolution that is as exact but
-rounds differently (another FFT library, a shorter circular convolution,
-numpy's fused complex product) moves a few pixels of a glare scene's frames
-by one level. The transforms are therefore SciPy's pocketfft, as scipy.fft
-runs them, loaded without scipy.fft's 0.3 s of imports, and the spectra's
-product and the kernel's powers are computed alike on every CPU
-(:func:`fft_convolve_full`, :mod:`rollsim.portable_math`).
+rounds differently (another FFT library, another transform size) moves a
+few pixels of a glare scene's frames by one level. The transforms are
+therefore SciPy's pocketfft, as scipy.fft runs them, loaded without
+scipy.fft's 0.3 s of imports; the kernel's powers are portable
+(:mod:`rollsim.portable_math`), and the kernel, even in both axes, is laid
+out around the origin of a circular convolution, so that its transform is
+real and the light's spectrum is scaled component by component: one
+rounded product each, the same on every CPU, where a complex product's
+fused multiply-adds were not (:func:`halo_convolution`).
 """
 
 from __future__ import annotations
@@ -80,21 +84,22 @@ def moffat_mass_beyond(radius_px: float, core_px: float, exponent: float) -> flo
 _POWER_BLOCK_ROWS = 256
 
 
-def _inside(radius: int, ry: int, rx: int) -> np.ndarray:
-    """Offsets (±ry, ±rx) within the disk of ``radius``, by exact integers: a boolean array."""
-    # The disk in exact integers: row dy holds |dx| <= isqrt(R^2 - dy^2).
-    room = radius**2 - np.arange(-ry, ry + 1, dtype=np.int64) ** 2
+def _quadrant_inside(radius: int, ry: int, rx: int) -> np.ndarray:
+    """Offsets (0…ry, 0…rx) within the disk of ``radius``, by exact integers: a boolean array."""
+    # The disk in exact integers: row dy holds dx <= isqrt(R^2 - dy^2).
+    room = radius**2 - np.arange(ry + 1, dtype=np.int64) ** 2
     half_widths = np.floor(np.sqrt(np.maximum(room, 0))).astype(np.int64)
     half_widths -= half_widths**2 > room  # the float root may round across an integer
     half_widths += (half_widths + 1) ** 2 <= room
     half_widths[room < 0] = -1
-    return np.abs(np.arange(-rx, rx + 1))[None, :] <= half_widths[:, None]
+    return np.arange(rx + 1)[None, :] <= half_widths[:, None]
 
 
-def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols: int) -> np.ndarray:
-    """The scattered part of the glare kernel, on pixel offsets (±rows, ±cols).
+def moffat_quadrant(core_px: float, exponent: float, radius_rows: int, radius_cols: int) -> np.ndarray:
+    """The scattered part of the glare kernel on offsets (0…rows, 0…cols): a quarter of :func:`moffat_kernel`.
 
-    Sampled at pixel offsets, and scaled so that its samples within the
+    The kernel depends on |dy| and |dx| alone; its other three quarters
+    mirror this one. Scaled so that the whole kernel's samples within the
     inscribed disk (radius R = min(rows, cols)) sum to the analytic mass of
     a unit Moffat halo within R; the samples beyond (the rectangle's
     corners) carry the same scale.
@@ -106,23 +111,20 @@ def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols
     exponent : float
         β, > 1 (the wings fall as r^−2β).
     radius_rows, radius_cols : int
-        Half-sizes of the kernel; the array is (2·rows + 1) × (2·cols + 1).
+        Half-sizes of the whole kernel.
 
     Returns
     -------
-    ndarray of float32
+    ndarray of float32, shape (rows + 1, cols + 1)
     """
     if not core_px > 0:
         raise ValueError(f"core_px must be > 0, got {core_px}")
     if not exponent > 1:
         raise ValueError(f"exponent must be > 1, got {exponent}")
     ry, rx = int(radius_rows), int(radius_cols)
-    # float32 where it spans ~4 frames of pixels: the halo is convolved in
-    # float32 anyway. The profile depends on |dy| and |dx| alone (the same
-    # float32 operations on −d as on d), so its powers, the costly part, are
-    # taken on one quadrant and mirrored: the same values. The power is the
-    # portable one (numpy's float32 power differs in the last bit between
-    # CPUs), in float64 rounded once to float32.
+    # float32 where it spans a frame of pixels: the halo is convolved in
+    # float32 anyway. The power is the portable one (numpy's float32 power
+    # differs in the last bit between CPUs), in float64 rounded once to float32.
     dy = np.arange(ry + 1, dtype=np.float32)[:, None] / np.float32(core_px)
     dx = np.arange(rx + 1, dtype=np.float32)[None, :] / np.float32(core_px)
     quadrant = dy**2 + dx**2  # (r / r0)^2, then the profile in place
@@ -130,15 +132,39 @@ def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols
     for first in range(0, quadrant.shape[0], _POWER_BLOCK_ROWS):  # float64 temporaries a block at a time
         block = quadrant[first:first + _POWER_BLOCK_ROWS]
         block[...] = power(block, -exponent)
-    rows, cols = np.abs(np.arange(-ry, ry + 1)), np.abs(np.arange(-rx, rx + 1))
-    kernel = np.take(np.take(quadrant, rows, axis=0), cols, axis=1)
-    inscribed = min(ry, rx)
-    # The scale from the whole kernel's disk, summed in its own order: the
-    # kernel's bits do not depend on how its samples were computed.
-    scale = (1.0 - moffat_mass_beyond(inscribed, core_px, exponent)) / kernel[_inside(inscribed, ry, rx)].sum(
-        dtype=np.float64)
-    kernel *= np.float32(scale)
-    return kernel
+    # The whole disk's sum from its quarter: the centre once, the axes twice,
+    # the rest four times.
+    inside = np.where(_quadrant_inside(min(ry, rx), ry, rx), quadrant, np.float32(0.0))
+    disk = (4.0 * inside[1:, 1:].sum(dtype=np.float64) + 2.0 * inside[1:, 0].sum(dtype=np.float64)
+            + 2.0 * inside[0, 1:].sum(dtype=np.float64) + float(inside[0, 0]))
+    quadrant *= np.float32((1.0 - moffat_mass_beyond(min(ry, rx), core_px, exponent)) / disk)
+    return quadrant
+
+
+def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols: int) -> np.ndarray:
+    """The scattered part of the glare kernel on pixel offsets (±rows, ±cols), centred.
+
+    :func:`moffat_quadrant` mirrored into the whole kernel.
+
+    Returns
+    -------
+    ndarray of float32, shape (2·rows + 1, 2·cols + 1)
+    """
+    quadrant = moffat_quadrant(core_px, exponent, radius_rows, radius_cols)
+    rows, cols = np.abs(np.arange(-int(radius_rows), int(radius_rows) + 1)), np.abs(
+        np.arange(-int(radius_cols), int(radius_cols) + 1))
+    return np.take(np.take(quadrant, rows, axis=0), cols, axis=1)
+
+
+def _wrapped_kernel(quadrant: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """The whole kernel laid out for a circular convolution of ``shape``: offset (dy, dx) at (dy mod H, dx mod W)."""
+    ry, rx = quadrant.shape[0] - 1, quadrant.shape[1] - 1
+    out = np.zeros(shape, dtype=np.float32)
+    out[: ry + 1, : rx + 1] = quadrant
+    out[: ry + 1, shape[1] - rx:] = quadrant[:, rx:0:-1]
+    out[shape[0] - ry:, : rx + 1] = quadrant[ry:0:-1, :]
+    out[shape[0] - ry:, shape[1] - rx:] = quadrant[ry:0:-1, rx:0:-1]
+    return out
 
 
 @functools.lru_cache(maxsize=1)
@@ -177,75 +203,60 @@ def _pocketfft() -> Any:
     return None
 
 
-def _zero_padded(x: np.ndarray, shape: list[int], axes: list[int]) -> np.ndarray:
-    """``x`` in a zero array of ``shape`` along ``axes`` (no shorter), as scipy.fft pads its input."""
-    out_shape = list(x.shape)
-    for n, axis in zip(shape, axes, strict=True):
-        out_shape[axis] = n
-    out = np.zeros(out_shape, x.dtype)
-    out[tuple(slice(0, n) for n in x.shape)] = x
+def _zero_padded(x: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """``x`` at the corner of a zero array of ``shape`` (no smaller)."""
+    out = np.zeros(shape, x.dtype)
+    out[: x.shape[0], : x.shape[1]] = x
     return out
 
 
-def spectrum_product(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The product of two complex spectra (broadcast), (ac − bd) + i(ad + bc).
+def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1) -> np.ndarray:
+    """The light convolved with the whole kernel of ``quadrant``, circularly.
 
-    Each product and sum rounded on its own: numpy's complex product fuses
-    them into multiply-adds on CPUs that have them, which rounds
-    differently, and moved a few pixels of a glare scene by a level between
-    machines.
-    """
-    real = x.real * y.real
-    real -= x.imag * y.imag
-    imag = x.real * y.imag
-    imag += x.imag * y.real
-    out = np.empty(real.shape, dtype=np.result_type(x, y))
-    out.real, out.imag = real, imag
-    return out
+    The transform size (H, W) is the fast one at or above the light's
+    extent plus twice the kernel's radius, so no offset the kernel holds
+    wraps onto another: entry (i mod H, j mod W) is the linear
+    convolution's value at offset (i, j) from the light's first pixel
+    (negative offsets included, down to minus the kernel's radius).
 
-
-def fft_convolve_full(a: np.ndarray, b: np.ndarray, workers: int = 1) -> np.ndarray:
-    """The full linear convolution of two real arrays of equal dimension, by FFT.
-
-    ``scipy.signal.fftconvolve(a, b, mode="full")`` with SciPy's transforms
-    and sizes, the spectra multiplied by :func:`spectrum_product` so that
-    the bits are the same on every CPU (tests/render/test_emitter_light.py
-    compares them): scipy.signal takes about a second to import (it imports
-    scipy.stats), longer than a frame's render, and scipy.fft 0.3 s. The
-    transforms are scipy.fft's ``rfftn`` and ``irfftn`` as they reach
-    pocketfft for float32 arrays (norm "backward": 1/n on the inverse,
-    inorm 2), called on the extension itself (:func:`_pocketfft`).
+    The kernel is even in both axes and laid out around the origin, so its
+    transform is real: the light's spectrum is scaled by that real part,
+    one rounded product per component. A complex product's fused
+    multiply-adds (numpy's, on CPUs that have them) would round differently
+    from one CPU to another; these products give the same bits on every
+    CPU. The transforms are scipy.fft's pocketfft (norm "backward").
 
     Parameters
     ----------
-    a, b : ndarray of float32 (or float64)
-        Same number of dimensions.
-    workers : int, default 1
-        Threads of the transforms. pocketfft shares whole one-dimensional
-        transforms out among them: the same bits for any number.
+    light : ndarray of float32, shape (R, C)
+    quadrant : ndarray of float32, shape (ry + 1, rx + 1)
+        A quarter of the kernel (:func:`moffat_quadrant`).
+    workers : int
+        Threads of the transforms: the same bits for any number.
 
     Returns
     -------
-    ndarray, shape ``a.shape + b.shape − 1``
+    ndarray of float32, shape (H, W)
     """
-    shape = [n1 + n2 - 1 for n1, n2 in zip(a.shape, b.shape, strict=True)]
-    # Axes of length 1 broadcast in the product, as in SciPy: no transform.
-    axes = [axis for axis in range(a.ndim) if a.shape[axis] != 1 and b.shape[axis] != 1]
-    if not axes:
-        return a * b
-    cut = tuple(slice(n) for n in shape)
+    ry, rx = quadrant.shape[0] - 1, quadrant.shape[1] - 1
+    wanted = (light.shape[0] + 2 * ry, light.shape[1] + 2 * rx)
     pocketfft = _pocketfft()
-    if pocketfft is None:
-        from scipy import fft  # another SciPy layout: the public functions, the same numbers
+    if pocketfft is None:  # another SciPy layout: the public functions, the same numbers
+        from scipy import fft
 
-        fast_shape = [fft.next_fast_len(shape[axis], True) for axis in axes]
-        spectrum = spectrum_product(fft.rfftn(a, fast_shape, axes=axes, workers=workers),
-                                    fft.rfftn(b, fast_shape, axes=axes, workers=workers))
-        return fft.irfftn(spectrum, fast_shape, axes=axes, workers=workers)[cut]
-    fast_shape = [pocketfft.good_size(shape[axis], True) for axis in axes]  # scipy.fft.next_fast_len
-    spectrum = spectrum_product(pocketfft.r2c(_zero_padded(a, fast_shape, axes), axes, True, 0, None, workers),
-                                pocketfft.r2c(_zero_padded(b, fast_shape, axes), axes, True, 0, None, workers))
-    return pocketfft.c2r(spectrum, axes, fast_shape[-1], False, 2, None, workers)[cut]
+        shape = (fft.next_fast_len(wanted[0], True), fft.next_fast_len(wanted[1], True))
+        spectrum = fft.rfft2(_zero_padded(light, shape), workers=workers)
+        kernel_real = np.ascontiguousarray(fft.rfft2(_wrapped_kernel(quadrant, shape), workers=workers).real)
+    else:
+        shape = (pocketfft.good_size(wanted[0], True), pocketfft.good_size(wanted[1], True))  # scipy's next_fast_len
+        spectrum = pocketfft.r2c(_zero_padded(light, shape), (0, 1), True, 0, None, workers)
+        kernel_real = np.ascontiguousarray(pocketfft.r2c(_wrapped_kernel(quadrant, shape), (0, 1), True, 0, None,
+                                                         workers).real)
+    # The real and imaginary parts side by side, each times the kernel's (real) transform.
+    spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_real[..., None]
+    if pocketfft is None:
+        return fft.irfft2(spectrum, shape, workers=workers)
+    return pocketfft.c2r(spectrum, (0, 1), shape[1], False, 2, None, workers)
 
 
 def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float, core_px: float,
@@ -262,7 +273,7 @@ def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float
     fraction : float
         η, the fraction of the light scattered into the halo, in [0, 1].
     core_px, exponent : float
-        r₀ and β of :func:`moffat_kernel`.
+        r₀ and β of :func:`moffat_quadrant`.
 
     Returns
     -------
@@ -273,18 +284,31 @@ def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float
     out = np.zeros(frame_shape)
     if light.coverage.size == 0:
         return Footprint(slice(0, height), slice(0, width), out)
-    out[light.rows, light.cols] = (1.0 - fraction) * light.coverage
     if fraction > 0:
         # The kernel reaches from any lit pixel to every pixel of the frame.
         ry = max(light.rows.stop, height - light.rows.start)
         rx = max(light.cols.stop, width - light.cols.start)
-        kernel = moffat_kernel(core_px, exponent, ry, rx)
         # Two threads at most: the one convolution of the scene's setup, on
         # a machine whose cores may all be rendering (the bits do not change).
-        halo = fft_convolve_full(light.coverage.astype(np.float32), kernel, workers=min(2, os.cpu_count() or 1))
-        # halo[i, j] lies at frame row light.rows.start - ry + i, column light.cols.start - rx + j.
-        top, left = ry - light.rows.start, rx - light.cols.start
-        # η·halo in float64 (the float32 halo widened first), one frame-sized temporary.
-        out += np.multiply(halo[top : top + height, left : left + width], fraction, dtype=np.float64)
+        halo = halo_convolution(light.coverage.astype(np.float32), moffat_quadrant(core_px, exponent, ry, rx),
+                                workers=min(2, os.cpu_count() or 1))
+        _scaled_window(halo, light.rows.start, light.cols.start, fraction, out)
+    # (1 − η)·L + η·halo: the sum in either order is the same number.
+    out[light.rows, light.cols] += (1.0 - fraction) * light.coverage
     np.maximum(out, 0.0, out=out)  # FFT round-off can dip a hair below 0 where the halo is faint
     return Footprint(slice(0, height), slice(0, width), out)
+
+
+def _scaled_window(halo: np.ndarray, first_row: int, first_col: int, fraction: float, out: np.ndarray) -> None:
+    """``out`` = η·(the circular ``halo`` at offsets (y − first_row, x − first_col)), float32 widened to float64.
+
+    Frame rows above the light lie at negative offsets, which wrap to the
+    halo's last rows (and so for columns): four blocks, copied straight.
+    """
+    height, width = out.shape
+    n_rows, n_cols = halo.shape
+    for frame_rows, halo_rows in ((slice(0, first_row), slice(n_rows - first_row, n_rows)),
+                                  (slice(first_row, height), slice(0, height - first_row))):
+        for frame_cols, halo_cols in ((slice(0, first_col), slice(n_cols - first_col, n_cols)),
+                                      (slice(first_col, width), slice(0, width - first_col))):
+            np.multiply(halo[halo_rows, halo_cols], fraction, out=out[frame_rows, frame_cols], dtype=np.float64)

@@ -11,8 +11,7 @@ from rollsim.errors import SceneError
 from rollsim.optics.emitter import profiled_light, radial_table_light
 from rollsim.optics.footprint import Footprint, footprint
 from rollsim.optics import glare
-from rollsim.optics.glare import fft_convolve_full, glare_core_px, glared_light, moffat_kernel, moffat_mass_beyond
-from rollsim.portable_math import power as portable_power
+from rollsim.optics.glare import glare_core_px, glared_light, moffat_kernel, moffat_mass_beyond
 from rollsim.render import RenderPipeline
 from rollsim.scene import load_scene
 
@@ -98,68 +97,68 @@ def test_glare_is_linear_in_the_light():
     np.testing.assert_allclose(glared_light(both, FRAME, 0.1, 5.0, 2.0).dense(FRAME), sum_of, rtol=1e-5, atol=1e-9)
 
 
-def reference_convolution(a, b):
-    """The full convolution as scipy.signal.fftconvolve takes it (scipy.fft's transforms and sizes), the
-    spectra multiplied with each product and sum rounded apart (numpy's complex product may fuse them)."""
-    from scipy import fft
-
-    shape = [n1 + n2 - 1 for n1, n2 in zip(a.shape, b.shape)]
-    axes = [axis for axis in range(a.ndim) if a.shape[axis] != 1 and b.shape[axis] != 1]
-    if not axes:
-        return a * b
-    fast = [fft.next_fast_len(shape[axis], True) for axis in axes]
-    x, y = fft.rfftn(a, fast, axes=axes), fft.rfftn(b, fast, axes=axes)
-    real, imag = x.real * y.real - x.imag * y.imag, x.real * y.imag + x.imag * y.real
-    product = np.empty(real.shape, dtype=x.dtype)
-    product.real, product.imag = real, imag
-    return fft.irfftn(product, fast, axes=axes)[tuple(slice(n) for n in shape)]
-
-
-CONVOLUTION_SHAPES = [((13, 17), (31, 29)), ((1, 7), (5, 9)), ((7, 1), (5, 9)), ((1, 1), (3, 3)), ((4, 6), (1, 1)),
-                      ((310, 310), (701, 1117))]
-
-
-@pytest.mark.parametrize("shape_a, shape_b", CONVOLUTION_SHAPES)
-@pytest.mark.parametrize("workers", [1, 2])
-def test_fft_convolution_is_scipy_ffts_to_the_bit(shape_a, shape_b, workers):
-    """The halo's convolution, without importing scipy.fft, gives the float32 bits of scipy.fft's transforms
-    with the spectra's product rounded term by term (threads or not)."""
-    rng = np.random.default_rng(sum(shape_a + shape_b))
-    a, b = rng.random(shape_a, dtype=np.float32), rng.random(shape_b, dtype=np.float32)
-    expected, got = reference_convolution(a, b), fft_convolve_full(a, b, workers=workers)
-    assert (got.dtype, got.shape) == (expected.dtype, expected.shape)
-    assert got.tobytes() == expected.tobytes()
-
-
-@pytest.mark.parametrize("shape_a, shape_b", CONVOLUTION_SHAPES)
-def test_fft_convolution_is_scipy_signals_to_float32_precision(shape_a, shape_b):
+def linear_convolution(light, kernel):
+    """The full linear convolution in float64 (scipy.signal): the reference the float32 transforms approach."""
     from scipy.signal import fftconvolve
 
-    rng = np.random.default_rng(sum(shape_a + shape_b))
-    a, b = rng.random(shape_a, dtype=np.float32), rng.random(shape_b, dtype=np.float32)
-    expected, got = fftconvolve(a, b, mode="full"), fft_convolve_full(a, b)
-    assert got.dtype == expected.dtype
-    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-5 * float(np.abs(expected).max()))
+    return fftconvolve(light.astype(np.float64), kernel.astype(np.float64), mode="full")
 
 
-def test_the_spectra_product_is_each_term_rounded_apart():
-    # The complex product (a + ib)(c + id) in float32 with every product and
-    # sum rounded on its own, against the same in float64 rounded at the
-    # end: within the one or two roundings the terms allow.
-    rng = np.random.default_rng(3)
-    x = (rng.standard_normal(1000) + 1j * rng.standard_normal(1000)).astype(np.complex64)
-    y = (rng.standard_normal(1000) + 1j * rng.standard_normal(1000)).astype(np.complex64)
-    exact = x.astype(np.complex128) * y.astype(np.complex128)
-    got = glare.spectrum_product(x.copy(), y)
-    assert got.dtype == np.complex64
-    np.testing.assert_allclose(got, exact, rtol=0, atol=4 * np.finfo(np.float32).eps * float(np.abs(exact).max()))
-    re = x.real * y.real
-    re -= x.imag * y.imag
-    assert got.real.tobytes() == re.tobytes()
+HALO_CASES = [((13, 17), 8.0, 2.0, 40, 55), ((1, 7), 3.0, 1.5, 20, 9), ((7, 1), 0.5, 4.0, 9, 30), ((1, 1), 5.0, 2.0, 12, 12),
+              ((310, 310), 208.24, 2.0, 695, 1115)]
+
+
+@pytest.mark.parametrize(("light_shape", "core", "beta", "ry", "rx"), HALO_CASES)
+def test_the_circular_halo_is_the_linear_convolution(light_shape, core, beta, ry, rx):
+    """Entry (i mod H, j mod W) is the full convolution's at offset (i, j) from the light's first pixel."""
+    light = np.random.default_rng(sum(light_shape)).random(light_shape, dtype=np.float32)
+    quadrant = glare.moffat_quadrant(core, beta, ry, rx)
+    halo = glare.halo_convolution(light, quadrant)
+    full = linear_convolution(light, moffat_kernel(core, beta, ry, rx))
+    assert halo.dtype == np.float32
+    assert halo.shape[0] >= light_shape[0] + 2 * ry and halo.shape[1] >= light_shape[1] + 2 * rx
+    offsets_y = np.arange(full.shape[0]) - ry  # full[k] lies at offset k − radius from the light's first pixel
+    offsets_x = np.arange(full.shape[1]) - rx
+    wrapped = halo[np.ix_(offsets_y % halo.shape[0], offsets_x % halo.shape[1])]
+    # float32 transforms: errors of ~1e-7 of the largest value.
+    np.testing.assert_allclose(wrapped, full, rtol=0, atol=4e-7 * full.max())
+    # Every other entry is where no offset reaches: zero to round-off.
+    rest = np.ones(halo.shape, dtype=bool)
+    rest[np.ix_(offsets_y % halo.shape[0], offsets_x % halo.shape[1])] = False
+    assert np.abs(halo[rest]).max(initial=0.0) <= 4e-7 * full.max()
+
+
+def test_the_wrapped_kernel_is_even_so_its_transform_is_real():
+    quadrant = glare.moffat_quadrant(6.0, 2.0, 30, 41)
+    shape = (80, 100)
+    kernel = glare._wrapped_kernel(quadrant, shape)
+    assert np.array_equal(kernel, np.roll(kernel[::-1, ::-1], (1, 1), axis=(0, 1)))  # k[-d] = k[d], circularly
+    spectrum = np.fft.rfft2(kernel.astype(np.float64))
+    assert np.abs(spectrum.imag).max() <= 1e-12 * np.abs(spectrum.real).max()
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_the_halo_has_the_same_bits_for_any_number_of_threads_and_without_the_extension(workers):
+    """pocketfft shares whole transforms out among threads; scipy.fft, where the extension is not found alone,
+    runs the same transforms."""
+    rng = np.random.default_rng(5)
+    light, quadrant = rng.random((40, 31), dtype=np.float32), glare.moffat_quadrant(7.0, 2.5, 77, 90)
+    assert glare._pocketfft() is not None  # the fast path is the one these tests check
+    direct = glare.halo_convolution(light, quadrant, workers=workers)
+    assert direct.tobytes() == glare.halo_convolution(light, quadrant, workers=1).tobytes()
+    try:
+        glare._pocketfft.cache_clear()
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(glare, "_pocketfft", lambda: None)
+            assert glare.halo_convolution(light, quadrant, workers=workers).tobytes() == direct.tobytes()
+    finally:
+        glare._pocketfft.cache_clear()
 
 
 def direct_moffat_kernel(core_px, exponent, ry, rx):
-    """The kernel as moffat_kernel computed it before its quadrant: every sample's power taken."""
+    """The kernel with every sample's power taken (not mirrored), scaled by the inscribed disk's sum."""
+    from rollsim.portable_math import power as portable_power
+
     dy = np.arange(-ry, ry + 1, dtype=np.float32)[:, None] / np.float32(core_px)
     dx = np.arange(-rx, rx + 1, dtype=np.float32)[None, :] / np.float32(core_px)
     kernel = dy**2 + dx**2
@@ -173,38 +172,24 @@ def direct_moffat_kernel(core_px, exponent, ry, rx):
 
 @pytest.mark.parametrize(("core_px", "exponent", "ry", "rx"), [(8.0, 2.0, 200, 260), (15.0, 1.5, 3, 9), (3.0, 3.5, 50, 7),
                                                              (208.24, 2.0, 695, 1115), (0.5, 4.0, 0, 6)])
-def test_moffat_kernel_mirrors_its_quadrant_to_the_bit(core_px, exponent, ry, rx):
-    """Powers taken on one quadrant and mirrored: every sample the direct formula's, the scale too."""
+def test_moffat_kernel_mirrors_its_quadrant(core_px, exponent, ry, rx):
+    """Powers taken on one quadrant and mirrored: every sample the direct formula's, to the scale's last bit."""
     kernel = moffat_kernel(core_px, exponent, ry, rx)
     assert kernel.dtype == np.float32 and kernel.flags.c_contiguous
-    assert kernel.tobytes() == direct_moffat_kernel(core_px, exponent, ry, rx).tobytes()
-
-
-def test_the_transforms_are_scipy_ffts_extension_without_scipy_fft():
-    """The halo's transforms come from scipy.fft's own compiled module, loaded
-    on its own; without it (another SciPy layout) scipy.fft gives the same bits."""
-    assert glare._pocketfft() is not None  # the fast path is the one these tests check
-    rng = np.random.default_rng(5)
-    a, b = rng.random((40, 31), dtype=np.float32), rng.random((77, 90), dtype=np.float32)
-    direct = fft_convolve_full(a, b)
-    try:
-        glare._pocketfft.cache_clear()
-        with pytest.MonkeyPatch.context() as patch:
-            patch.setattr(glare, "_pocketfft", lambda: None)
-            assert fft_convolve_full(a, b).tobytes() == direct.tobytes()
-    finally:
-        glare._pocketfft.cache_clear()
+    np.testing.assert_array_equal(kernel, kernel[::-1, :])
+    np.testing.assert_array_equal(kernel, kernel[:, ::-1])
+    np.testing.assert_allclose(kernel, direct_moffat_kernel(core_px, exponent, ry, rx), rtol=2.5e-7, atol=0)
 
 
 def reference_glare(light, frame, eta, core, beta):
-    """glared_light as it was: the reference full convolution with the directly computed kernel, cut to the frame."""
+    """(1 − η)·L + η·(L ⊗ M) cut to the frame, in float64."""
     height, width = frame
     out = light.dense(frame) * (1.0 - eta)
     ry = max(light.rows.stop, height - light.rows.start)
     rx = max(light.cols.stop, width - light.cols.start)
-    halo = reference_convolution(light.coverage.astype(np.float32), direct_moffat_kernel(core, beta, ry, rx))
+    halo = linear_convolution(light.coverage, moffat_kernel(core, beta, ry, rx))
     top, left = ry - light.rows.start, rx - light.cols.start
-    out += eta * halo[top : top + height, left : left + width].astype(np.float64)
+    out += eta * halo[top : top + height, left : left + width]
     return np.maximum(out, 0.0)
 
 
@@ -221,13 +206,13 @@ GLARE_CASES = [
 
 @pytest.mark.parametrize(("frame", "rows", "cols"), GLARE_CASES)
 @pytest.mark.parametrize(("eta", "core", "beta"), [(0.3, 6.0, 2.0), (1.0, 0.5, 4.0), (0.8, 208.0, 2.0)])
-def test_glare_is_the_reference_convolution_to_the_bit(frame, rows, cols, eta, core, beta):
-    """The frames carry the halo's float32 bits (another rounding moves a few
-    pixels by a level): glared_light is the reference convolution's, exactly."""
+def test_glare_is_the_linear_convolution_cut_to_the_frame(frame, rows, cols, eta, core, beta):
     coverage = np.random.default_rng(sum(rows + cols)).random((rows[1] - rows[0], cols[1] - cols[0]))
     light = Footprint(slice(*rows), slice(*cols), coverage)
     got = glared_light(light, frame, eta, core, beta)
-    assert got.coverage.tobytes() == reference_glare(light, frame, eta, core, beta).tobytes()
+    expected = reference_glare(light, frame, eta, core, beta)
+    # The light is convolved in float32 (the halo's relative error ~1e-7).
+    np.testing.assert_allclose(got.coverage, expected, rtol=0, atol=4e-7 * expected.max())
 
 
 # ----------------------------------------------------------- the face's profile
