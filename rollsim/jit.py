@@ -41,7 +41,7 @@ from typing import Any, Callable, Iterator, Optional
 _DISABLED = ("0", "false", "no", "off")
 # Every module whose code or constants a kernel compiles in.
 KERNEL_SOURCES = ("rollsim.jit", "rollsim.counter_rng", "rollsim.gaussian", "rollsim.sensor.poisson",
-                  "rollsim.sensor.chain", "rollsim.render.means")
+                  "rollsim.sensor.chain")
 
 
 # Set by numpy_only(): work too short to pay for numba's import and cache load.

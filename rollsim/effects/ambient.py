@@ -33,7 +33,7 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
         correction = static_correction if state.footprint is None else correction_of(fp)
         factor = state.ambient_row_factor  # flicker
         if factor is None and state.means is not None and state.means.background is None:
-            # Joins the LED's light as a part: the frame is written in one pass.
+            # Joins the LED's light as a part: no frame written (rollsim.sensor.means).
             state.means = state.means.with_ambient(background, fp.rows, fp.cols, correction)
             return
         if factor is None:

@@ -27,7 +27,7 @@ import numpy as np
 
 from rollsim.effects.base import SLOTS, Stage, on_box
 from rollsim.errors import RollsimError
-from rollsim.render.means import SeparableMeans
+from rollsim.sensor.means import SeparableMeans
 from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.cfa import demosaic
 from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_chain
@@ -77,8 +77,8 @@ def led_signal_stage(setup: SceneSetup) -> Stage:
     def run(state):
         fp = static if state.footprint is None else state.footprint
         if fp.coverage.size:
-            # As parts (rollsim.render.means): the frame is written once the
-            # ambient light has joined them, or when a stage reads it.
+            # As parts (rollsim.sensor.means): the frame is written only if a
+            # stage reads it; the compiled chain reads the parts.
             state.means = SeparableMeans(shape, fp.rows, fp.cols, coverage_of(fp),
                                          scalar_rate * state.led_exposure_s[fp.rows])
         else:
@@ -214,7 +214,10 @@ def fused_chain_stage(run: list[Stage]) -> Stage:
     def run_fused(state):
         keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
                          read=None if read is None else state.counter_key(read.stream))
-        result = run_chain(state.electrons, None if shot is None else shot.value, keys, full_well_e=full_well,
+        # The means as parts where no stage has written the frame: the
+        # compiled chain then writes each block's means itself.
+        means = state.electrons if state.means is None else state.means
+        result = run_chain(means, None if shot is None else shot.value, keys, full_well_e=full_well,
                            read_sigma_e=None if read is None else read.value, adc=adc,
                            lut=None if output is None else output.value)
         if last in ("shot", "full_well", "read"):

@@ -10,7 +10,7 @@ import numpy as np
 from rollsim.counter_rng import stream_key
 from rollsim.seeds import rng as named_rng
 
-from rollsim.render.means import SeparableMeans, materialize
+from rollsim.sensor.means import SeparableMeans, materialize
 
 if TYPE_CHECKING:
     from rollsim.optics.footprint import Footprint
@@ -46,9 +46,10 @@ class FrameState:
         ``means`` holds them as parts, reading this writes the frame (once)
         and setting it drops the parts.
     means : SeparableMeans or None
-        The mean electrons as their parts (:mod:`rollsim.render.means`), not
+        The mean electrons as their parts (:mod:`rollsim.sensor.means`), not
         written into a frame yet: set by the LED's signal and the ambient
-        light, so that the frame is written in one pass.
+        light; the compiled sensor chain reads them block by block, and the
+        frame is written only for a stage that reads it.
     dn : ndarray of uint16, shape (H, W)
         ADC output.
     image : ndarray

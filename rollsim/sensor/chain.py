@@ -37,6 +37,7 @@ from rollsim.counter_rng import GAMMA, LOW32, MIX1, MIX2, WORD_SCALE, words
 from rollsim.gaussian import normal_from_words, normal_tables
 from rollsim.jit import kernel
 from rollsim.sensor.adc import electrons_to_dn
+from rollsim.sensor.means import SeparableMeans, kernel_parts, materialize
 from rollsim.sensor.poisson import (
     BIN_SHIFT,
     CLASS_BITS,
@@ -157,7 +158,7 @@ _NO_GUIDE = np.zeros(TABLE_BINS, dtype=np.uint16)
 
 
 @kernel
-def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, adc, lut, out,
+def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, read_key, adc, lut, out,
                   cdf, slot, cdf_start, cdf_size, k_lo, class_means, exp_coefficients, z_body, z_low, z_high):
     # One flat body: numba passes array arguments to a called function with
     # reference counting, which cost several times the work itself. A step
@@ -180,9 +181,24 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
     # loop over them branches alike. The one loop per pixel that carried
     # every step and its rare branches took 1.2× (paper-geometric) to 1.7×
     # (paper-default) as long. Each pixel's words depend only on its index,
-    # so the order of the work changes no bit: the numpy twin's bytes.
+    # so the order of the work changes no bit: the numpy twin's bytes. The
+    # block's means come from the frame ``lam``, or are written from their
+    # parts (rollsim.sensor.means) with the operations that would have
+    # written the frame: then no float64 frame is written nor read back.
     n_block = BLOCK_PIXELS
-    bits_of = lam.view(np.uint64)
+    # Each block's mean electrons: a copy of the frame's (``lam``), or
+    # written from their parts (``parts``, rollsim.sensor.means: the
+    # frame is then never written, nor read back).
+    mean_of = np.empty(n_block, dtype=np.float64)
+    bits_of = mean_of.view(np.uint64)
+    # Each of lam and parts is tested on its own: numba drops a branch
+    # whose condition is on an argument that is None, not one on its partner.
+    n_pixels = 0
+    if lam is not None:
+        n_pixels = lam.size
+    if parts is not None:
+        height, width = parts[0]
+        n_pixels = height * width
     word = np.empty(n_block, dtype=np.uint64)  # the shot noise's 64-bit word (counter 2i)
     ident = np.empty(n_block, dtype=np.int64)  # class id, −1 for a mean outside [1, 256)
     # The class's mean g: the mean with all but its top CLASS_BITS mantissa bits
@@ -204,12 +220,63 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
     rest_of = np.empty(n_block, dtype=np.float64)  # their remainders r, below 1
     u_of = np.empty(n_block, dtype=np.float64)  # and uniforms
     seq_p = np.empty(n_block, dtype=np.float64)  # and e^-r
-    for first in range(start, lam.size, n_block):
-        n = min(n_block, lam.size - first)
+    for first in range(start, n_pixels, n_block):
+        n = min(n_block, n_pixels - first)
+        # ------------------------------------------------- the block's means
+        if lam is not None:
+            for j in range(n):
+                mean_of[j] = lam[first + j]
+        if parts is not None:
+            # Row by row, as rollsim.sensor.means writes a frame: the base
+            # level, the LED's box, the face's correction, each element with
+            # the same operations.
+            _, box, coverage, row_signal, level_kind, level, level_map, face, correction = parts
+            first_row, n_rows, first_col, n_cols = box
+            j = 0
+            while j < n:
+                y = (first + j) // width
+                x = first + j - y * width
+                m = min(n - j, width - x)  # the rest of the block on row y
+                # Row slices as 1-D views, indexed from 0: plain loops LLVM vectorises.
+                into = mean_of[j:j + m]
+                if level_kind == 2:
+                    base = level_map[y, x:x + m]
+                    for k in range(m):
+                        into[k] = 0.0 + base[k]
+                elif level_kind == 1:
+                    for k in range(m):
+                        into[k] = 0.0 + level
+                else:
+                    for k in range(m):
+                        into[k] = 0.0
+                r = y - first_row
+                lo, hi = max(x, first_col), min(x + m, first_col + n_cols)
+                if 0 <= r < n_rows and lo < hi:
+                    signal = row_signal[r]
+                    lit = mean_of[j + lo - x:j + hi - x]
+                    cover = coverage[r, lo - first_col:hi - first_col]
+                    if level_kind == 2:
+                        base = level_map[y, lo:hi]
+                        for k in range(hi - lo):
+                            lit[k] = cover[k] * signal + base[k]
+                    elif level_kind == 1:
+                        for k in range(hi - lo):
+                            lit[k] = cover[k] * signal + level
+                    else:
+                        for k in range(hi - lo):
+                            lit[k] = cover[k] * signal
+                r = y - face[0]
+                lo, hi = max(x, face[2]), min(x + m, face[2] + face[3])
+                if 0 <= r < face[1] and lo < hi:
+                    lit = mean_of[j + lo - x:j + hi - x]
+                    extra = correction[r, lo - face[2]:hi - face[2]]
+                    for k in range(hi - lo):
+                        lit[k] += extra[k]
+                j += m
         # ------------------------------------------------------ shot noise
         if shot_key is None:
             for j in range(n):
-                electrons_of[j] = np.float32(lam[first + j])
+                electrons_of[j] = np.float32(mean_of[j])
         else:
             n_bad = 0  # counted, not or-ed: LLVM vectorises a sum, not a boolean reduction
             for j in range(n):  # vectorised: the words, the classes, NaN / inf / negative
@@ -218,9 +285,9 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                 z = (z ^ (z >> np.uint64(30))) * MIX1
                 z = (z ^ (z >> np.uint64(27))) * MIX2
                 word[j] = z ^ (z >> np.uint64(31))
-                mean = lam[i]
+                mean = mean_of[j]
                 n_bad += np.int64(not ((mean >= 0.0) & (mean < np.inf)))
-                bits = bits_of[i]
+                bits = bits_of[j]
                 c = ((np.int64(bits >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
                     (bits >> MANTISSA_SHIFT) & CLASS_MASK)
                 ident[j] = c if (mean >= 1.0) & (mean < 256.0) else np.int64(-1)
@@ -243,7 +310,7 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                         elif top == 0xFFFF:
                             normal[j] = z_high[fine]
                 for j in range(n):  # vectorised
-                    mean32 = np.float32(lam[first + j])
+                    mean32 = np.float32(mean_of[j])
                     electrons_of[j] = normal[j] * np.sqrt(mean32) + mean32
             else:
                 n_missing = 0
@@ -259,7 +326,7 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                 for j in range(n):
                     entry[j] = guide[index[j]]
                 for j in range(n):  # vectorised: the common case's count, and what else each pixel needs
-                    mean = lam[first + j]
+                    mean = mean_of[j]
                     classed = ident[j] >= 0
                     rest = mean - class_mean[j] if classed else mean
                     # u < 1 − r as words: w < ceil((1 − r)·2^32) is w < (1 − r)·2^32 for an integer w.
@@ -284,7 +351,7 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                     bin_place[n_bin] = j
                     n_bin += (need[j] & 1) != 0
                     rest_place[n_rest] = j
-                    rest_of[n_rest] = lam[first + j] - class_mean[j] if classed else lam[first + j]
+                    rest_of[n_rest] = mean_of[j] - class_mean[j] if classed else mean_of[j]
                     u_of[n_rest] = np.float64(word[j] & LOW32 if classed else word[j] >> np.uint64(32)) * WORD_SCALE
                     n_rest += (need[j] & 2) != 0
                     rare_place[n_rare] = j
@@ -302,7 +369,7 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                 for s in range(n_rare):  # means of 256 or more: the tables of up to three classes
                     j = rare_place[s]
                     i = first + j
-                    mean = lam[i]
+                    mean = mean_of[j]
                     word64 = word[j]
                     if mean >= GAUSSIAN_ABOVE_E:
                         # Poisson means beyond the tables: N(λ, λ).
@@ -326,8 +393,8 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
                             c = np.int64(exponent - 1) * (1 << CLASS_BITS) + np.int64(
                                 (fraction * 2.0 - 1.0) * (1 << CLASS_BITS))
                         else:
-                            c = ((np.int64(bits_of[i] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
-                                (bits_of[i] >> MANTISSA_SHIFT) & CLASS_MASK)
+                            c = ((np.int64(bits_of[j] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
+                                (bits_of[j] >> MANTISSA_SHIFT) & CLASS_MASK)
                         if slot[c] < 0:
                             return first  # a class without its table: built, then this block again
                         g = guide[slot[c] * TABLE_BINS + np.int64(u_word >> BIN_SHIFT)]
@@ -412,11 +479,13 @@ def _chain_kernel(lam, start, shot_key, guide, full_well, read_sigma, read_key, 
             else:
                 for j in range(n):
                     out[first + j] = lut[level_of[j]]
-    return lam.size
+    return n_pixels
 
 
-def _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, lut):
-    n = lam.size
+def _chain_compiled(compiled, means, shot, keys, full_well_e, read_sigma_e, adc, lut):
+    """The compiled chain over flat means (float64), or over the means' parts (a SeparableMeans)."""
+    lam, parts = (None, kernel_parts(means)) if isinstance(means, SeparableMeans) else (means, None)
+    n = means.shape[0] * means.shape[1] if lam is None else lam.size
     if adc is None:
         out = np.empty(n, dtype=np.float32)
         adc_constants = None
@@ -430,7 +499,7 @@ def _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, l
         if guide.size == 0:  # the kernel reads a row of the guide for every pixel, and uses those of built classes
             guide = _NO_GUIDE
         stop = int(compiled(
-            lam, start,
+            lam, parts, start,
             None if shot is None else np.uint64(keys.shot),
             guide if shot == "poisson" else None,
             None if full_well_e is None else np.float32(full_well_e),
@@ -442,6 +511,8 @@ def _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, l
         if stop < 0:
             raise ValueError(_BAD_MEANS)
         if stop < n:
+            if lam is None:  # finding the classes still missing reads the frame: written once, and read from here on
+                lam, parts = materialize(means).ravel(), None
             build_classes_from(lam, stop)
         start = stop
     return out
@@ -492,16 +563,19 @@ def build_classes_from(lam: np.ndarray, start: int) -> None:
 # ------------------------------------------------------------------ public
 
 
-def run_chain(lam: np.ndarray, shot: Optional[Literal["poisson", "gaussian"]], keys: ChainKeys,
+def run_chain(lam: np.ndarray | SeparableMeans, shot: Optional[Literal["poisson", "gaussian"]], keys: ChainKeys,
               full_well_e: Optional[float] = None, read_sigma_e: Optional[float] = None,
               adc: Optional[Adc] = None, lut: Optional[np.ndarray] = None) -> np.ndarray:
     """Shot noise and the chain after it, on a frame of electrons.
 
     Parameters
     ----------
-    lam : ndarray of float, shape (H, W)
+    lam : ndarray of float, shape (H, W), or SeparableMeans
         Mean electrons per pixel (finite and non-negative) when ``shot`` is
-        given; else the electrons as they are (float32 values).
+        given; else the electrons as they are (float32 values). Given as
+        parts (:mod:`rollsim.sensor.means`), the compiled chain writes each
+        block's means itself, the same values; the numpy twin writes the
+        frame first.
     shot : {"poisson", "gaussian"} or None
         Shot noise, or None for a chain that starts later.
     keys : ChainKeys
@@ -533,8 +607,13 @@ def run_chain(lam: np.ndarray, shot: Optional[Literal["poisson", "gaussian"]], k
         raise ValueError("an output table needs the ADC")
     if read_sigma_e is not None and (keys.read is None or not read_sigma_e >= 0):
         raise ValueError("read noise needs its key and a non-negative sigma")
-    flat = np.ascontiguousarray(lam, dtype=np.float64).ravel()
     compiled = _chain_kernel.compiled
+    if isinstance(lam, SeparableMeans):
+        shape = lam.shape
+        if compiled is not None and shape[0] * shape[1] > 0:
+            return _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, lut).reshape(shape)
+        lam = materialize(lam)
+    flat = np.ascontiguousarray(lam, dtype=np.float64).ravel()
     if compiled is None or flat.size == 0:
         if shot is not None and flat.size and not (np.isfinite(flat).all() and flat.min() >= 0.0):
             raise ValueError(_BAD_MEANS)

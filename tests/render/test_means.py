@@ -1,13 +1,18 @@
-"""The mean electrons as parts (rollsim.render.means): written in one pass, the bytes of the stages one by one."""
+"""The mean electrons as parts (rollsim.sensor.means): the compiled chain reads them block by block, the same
+bytes as the frame the stages wrote one by one."""
 
 import numpy as np
 import pytest
 
+import rollsim.sensor.chain as chain
 from rollsim import jit
 from rollsim.render import RenderPipeline
-from rollsim.render.means import SeparableMeans, _materialize_numpy, materialize
 from rollsim.render.state import FrameState
 from rollsim.scene import load_scene
+from rollsim.sensor.adc import gray8_lut
+from rollsim.sensor.chain import Adc, ChainKeys, run_chain
+from rollsim.sensor.means import SeparableMeans, materialize
+from rollsim.sensor.poisson import PoissonTables
 
 SMALL = ["camera.width_px=320", "camera.height_px=240"]
 
@@ -30,37 +35,62 @@ def random_means(rng, shape, light, face, background="level"):
     if background:
         (f0, f1), (g0, g1) = face
         level = rng.random() * 7.0 if background == "level" else rng.random(shape) * 7.0
-        means = means.with_ambient(level, slice(f0, f1), slice(g0, g1), rng.standard_normal((f1 - f0, g1 - g0)))
+        means = means.with_ambient(level, slice(f0, f1), slice(g0, g1), rng.random((f1 - f0, g1 - g0)) * 2.0)
     return means
 
 
 CASES = [
-    ((60, 80), ((10, 50), (20, 70)), ((15, 45), (25, 60))),  # the face inside the light
+    ((60, 80), ((10, 50), (20, 70)), ((15, 45), (25, 60))),  # the face inside the light; blocks span rows
     ((60, 80), ((0, 60), (0, 80)), ((20, 30), (0, 80))),  # the light over the whole frame (glare)
     ((60, 80), ((0, 1), (79, 80)), ((0, 1), (79, 80))),  # one corner pixel
     ((60, 80), ((30, 30), (5, 5)), ((30, 30), (5, 5))),  # empty boxes
-    ((1, 9), ((0, 1), (2, 7)), ((0, 1), (3, 4))),
+    ((1, 9), ((0, 1), (2, 7)), ((0, 1), (3, 4))),  # one row
+    ((3, 2100), ((1, 3), (1000, 2050)), ((0, 2), (1990, 2100))),  # rows wider than a block
 ]
+KEYS = ChainKeys(np.uint64(21), np.uint64(22))
+CHAINS = [dict(shot="poisson", full_well_e=60.0, read_sigma_e=2.0, adc=Adc(3.0, 64, 10), lut=gray8_lut(64, 10)),
+          dict(shot="gaussian", read_sigma_e=2.0, adc=Adc(3.0, 64, 10)), dict(shot=None, full_well_e=30.0)]
 
 
 @pytest.mark.parametrize(("shape", "light", "face"), CASES)
 @pytest.mark.parametrize("background", ["level", "map", None])
-def test_the_compiled_pass_writes_the_stages_bytes(shape, light, face, background):
+def test_the_frame_written_from_the_parts_is_the_stages(shape, light, face, background):
     means = random_means(np.random.default_rng(len(light) + shape[0]), shape, light, face, background)
-    expected = stagewise(means)
-    assert _materialize_numpy(means).tobytes() == expected.tobytes()
-    got = materialize(means)
-    assert got.dtype == np.float64 and got.shape == shape and got.tobytes() == expected.tobytes()
-    with jit.numpy_only():
-        assert materialize(means).tobytes() == expected.tobytes()
+    frame = materialize(means)
+    assert frame.dtype == np.float64 and frame.shape == shape
+    assert frame.tobytes() == stagewise(means).tobytes()
+
+
+@pytest.mark.parametrize(("shape", "light", "face"), CASES)
+@pytest.mark.parametrize("background", ["level", "map", None])
+@pytest.mark.parametrize("steps", CHAINS, ids=["poisson-gray8", "gaussian-raw", "electrons"])
+def test_the_chain_given_the_parts_renders_the_bytes_of_the_frame(shape, light, face, background, steps):
+    means = random_means(np.random.default_rng(len(light) + shape[1]), shape, light, face, background)
+    steps = dict(steps)
+    shot = steps.pop("shot")
+    from_frame = run_chain(materialize(means), shot, KEYS, **steps)
+    from_parts = run_chain(means, shot, KEYS, **steps)
+    assert from_parts.shape == shape and from_parts.dtype == from_frame.dtype
+    assert from_parts.tobytes() == from_frame.tobytes()
+    with jit.numpy_only():  # the twin writes the frame first
+        assert run_chain(means, shot, KEYS, **steps).tobytes() == from_frame.tobytes()
+
+
+def test_a_class_first_met_in_the_parts_writes_the_frame_once_and_keeps_the_bytes(monkeypatch):
+    means = random_means(np.random.default_rng(3), (40, 3000), ((2, 38), (10, 2900)), ((5, 30), (20, 2000)))
+    expected = run_chain(materialize(means), "poisson", KEYS, read_sigma_e=1.0)
+    monkeypatch.setattr(chain, "TABLES", PoissonTables())  # every class met for the first time
+    written = []
+    monkeypatch.setattr(chain, "materialize", lambda parts: written.append(parts) or materialize(parts))
+    assert run_chain(means, "poisson", KEYS, read_sigma_e=1.0).tobytes() == expected.tobytes()
+    if jit.numba_module() is not None:
+        assert len(written) == 1
 
 
 def test_a_box_and_its_values_must_agree():
     means = SeparableMeans((10, 10), slice(0, 3), slice(0, 3), np.ones((3, 4)), np.ones(3))
-    if jit.numba_module() is None:
-        pytest.skip("numba is not used here")
     with pytest.raises(ValueError, match="3 x 3"):
-        materialize(means)
+        chain.kernel_parts(means)
 
 
 def test_ambient_joins_the_parts_once_with_a_level_or_a_map_of_the_frame():
@@ -85,21 +115,3 @@ def test_reading_the_electrons_writes_the_frame_once_and_setting_them_drops_the_
     state.means = parts
     state.electrons = np.zeros(3)
     assert state.means is None and state.electrons.shape == (3,)
-
-
-@pytest.mark.parametrize("name", ["paper-geometric", "paper-default", "effect-vignetting", "effect-flicker", "effect-motion",
-                                  "stress-partly-out", "effect-bayer"])
-def test_every_scene_renders_the_same_frames_with_the_parts_written_stage_by_stage(name, monkeypatch):
-    """With the parts written as the stages once wrote them (a pass each), a render's frames are unchanged."""
-    scene = load_scene(name, SMALL)
-    frames = [RenderPipeline(scene).render(i).image for i in (0, 3)]
-    monkeypatch.setattr(FrameState, "electrons", property(
-        lambda self: _stagewise_electrons(self), FrameState.electrons.fset))
-    assert all(np.array_equal(a, RenderPipeline(scene).render(i).image) for a, i in zip(frames, (0, 3)))
-
-
-def _stagewise_electrons(state):
-    if state.means is not None:
-        state._electrons = stagewise(state.means)
-        state.means = None
-    return state._electrons
