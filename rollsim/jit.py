@@ -41,7 +41,8 @@ from typing import Any, Callable, Iterator, Optional
 _DISABLED = ("0", "false", "no", "off")
 # Every module whose code or constants a kernel compiles in.
 KERNEL_SOURCES = ("rollsim.jit", "rollsim.counter_rng", "rollsim.gaussian", "rollsim.sensor.poisson",
-                  "rollsim.sensor.chain")
+                  "rollsim.sensor.chain", "rollsim.isp.jpeg_islow",
+                  "rollsim.isp.filters")
 
 
 # Set by numpy_only(): work too short to pay for numba's import and cache load.

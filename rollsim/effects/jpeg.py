@@ -1,9 +1,9 @@
 """``jpeg``: the frame compressed as a JPEG and decoded, as a camera app saves it.
 
 The frame written to PNG is then the decoded JPEG, with the codec's
-blocking and ringing (:func:`rollsim.isp.jpeg_round_trip`, OpenCV's
-libjpeg). A stripe decoder reads frames like these from a phone's camera
-app or a video's I-frames.
+blocking and ringing (:func:`rollsim.isp.jpeg_round_trip`: libjpeg's
+bits, a grey frame computed without the entropy coding). A stripe decoder
+reads frames like these from a phone's camera app or a video's I-frames.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rollsim.jit import kernel
 from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
 
 TRUNCATE_SIGMA = 4.0  # kernel radius in σ: 6.3e-5 of the mass cut, renormalised
@@ -33,7 +34,7 @@ def gaussian_kernel(sigma_px: float) -> np.ndarray:
     return (kernel / kernel.sum()).astype(np.float32)
 
 
-# The filters' weights are multiples of 2^-WEIGHT_BITS (see _filtered).
+# The filters' weights are multiples of 2^-WEIGHT_BITS (see _blurred).
 WEIGHT_BITS = 16
 
 
@@ -67,11 +68,10 @@ def _blurred(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> n
 
 
 def _to_uint8(values: np.ndarray) -> np.ndarray:
-    """float64 values clipped to 0…255 and rounded half to even, as uint8 (OpenCV's saturating cast, in one pass)."""
-    import cv2
-
-    # A scalar second operand (OpenCV's own overload; its stubs know only arrays).
-    return np.asarray(cv2.add(values, 0.0, dtype=cv2.CV_8U))  # type: ignore[call-overload]
+    """float64 values rounded half to even and clipped to 0…255, as uint8 (OpenCV's saturating cast)."""
+    rounded = np.rint(values, out=values)
+    np.clip(rounded, 0.0, 255.0, out=rounded)
+    return rounded.astype(np.uint8)
 
 
 def smooth(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float = 0.0) -> np.ndarray:
@@ -89,6 +89,9 @@ def smooth(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float = 0.0) 
     -------
     ndarray of uint8, the shape of ``image``
     """
+    compiled = _filter_kernel.compiled
+    if compiled is not None:
+        return _filter_compiled(compiled, image, sigma_rows_px, sigma_cols_px, None)
     return _to_uint8(_blurred(image, sigma_rows_px, sigma_cols_px))
 
 
@@ -109,8 +112,90 @@ def sharpen(image: np.ndarray, amount: float, sigma_px: float) -> np.ndarray:
     """
     if not (np.isfinite(amount) and amount >= 0):
         raise ValueError(f"amount must be a finite number >= 0, got {amount!r}")
+    compiled = _filter_kernel.compiled
+    if compiled is not None:
+        return _filter_compiled(compiled, image, sigma_px, sigma_px, float(amount))
     # I + a·(I − G) in float64: the detail I − G is exact, then two roundings.
     values = np.subtract(image, _blurred(image, sigma_px, sigma_px))
     values *= amount
     values += image
     return _to_uint8(values)
+
+
+# --------------------------------------------------------------- compiled
+
+
+def _integer_weights(sigma_px: float) -> np.ndarray:
+    """The fixed-point kernel's weights as integers (multiples of 2^-WEIGHT_BITS, times 2^WEIGHT_BITS)."""
+    return np.rint(fixed_point_kernel(gaussian_kernel(sigma_px)) * float(1 << WEIGHT_BITS)).astype(np.int64)
+
+
+def _filter_compiled(compiled, image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float,
+                     amount: float | None) -> np.ndarray:
+    """The compiled filter, channel by channel: smoothing, or with ``amount`` unsharp masking."""
+    if image.dtype != np.uint8:
+        raise ValueError(f"the ISP filters take 8-bit images, got {image.dtype}")
+    rows, cols = _integer_weights(sigma_rows_px), _integer_weights(sigma_cols_px)
+    out = np.empty_like(image)
+    channels = [(image, out)] if image.ndim == 2 else [(image[..., k], out[..., k]) for k in range(image.shape[2])]
+    for source, target in channels:
+        result = np.empty(source.shape, dtype=np.uint8)
+        compiled(np.ascontiguousarray(source), rows, cols, amount, result)
+        target[...] = result
+    return out
+
+
+@kernel
+def _filter_kernel(image, rows, cols, amount, out):
+    # The separable filter in integers, exact as the twin's float64 (sums of
+    # k·2^-32 below 2^40), then the twin's float64 arithmetic and its
+    # rounding half to even with saturation (OpenCV's saturate_cast):
+    # the same bytes. Row by row: a column pass into ``column_sums``,
+    # mirrored at the ends into ``padded``, then the row pass into
+    # ``blurred_row``. Edges are reflected without repeating the edge pixel
+    # (OpenCV's BORDER_REFLECT_101), however far a tap reaches.
+    height, width = image.shape
+    ry, rx = rows.size // 2, cols.size // 2
+    # The column pass in int32 (sums below 255·2^16 < 2^31), the row pass in
+    # float64, where every product and sum (below 2^40) is exact too: both
+    # vectorise better than int64 products.
+    rows32 = rows.astype(np.int32)
+    column_sums = np.empty(width, dtype=np.int32)
+    padded = np.empty(width + 2 * rx, dtype=np.float64)
+    blurred_row = np.empty(width, dtype=np.float64)
+    scale = 1.0 / float(1 << (2 * WEIGHT_BITS))
+    row_period, column_period = max(2 * (height - 1), 1), max(2 * (width - 1), 1)
+    for y in range(height):
+        for x in range(width):
+            column_sums[x] = 0
+        for i in range(rows.size):
+            # Reflect-101 folded onto its period 2(H − 1) (a single row reflects onto itself).
+            source = abs(y + i - ry) % row_period if height > 1 else 0
+            source = row_period - source if source >= height else source
+            weight, pixels = rows32[i], image[source]
+            for x in range(width):
+                column_sums[x] += weight * np.int32(pixels[x])
+        for x in range(width):
+            padded[rx + x] = np.float64(column_sums[x])
+        for x in range(rx):  # the ends, mirrored
+            for target in (x, rx + width + x):
+                source = abs(target - rx) % column_period if width > 1 else 0
+                source = column_period - source if source >= width else source
+                padded[target] = np.float64(column_sums[source])
+        for x in range(width):
+            blurred_row[x] = 0.0
+        for j in range(cols.size):  # taps outside, pixels inside: a loop LLVM vectorises
+            weight = np.float64(cols[j])
+            for x in range(width):
+                blurred_row[x] += weight * padded[x + j]
+        pixels, result = image[y], out[y]  # 1-D rows: loops LLVM vectorises
+        for x in range(width):
+            blurred = blurred_row[x] * scale  # exact: the scale is a power of two
+            if amount is not None:
+                pixel = np.float64(pixels[x])
+                blurred = (pixel - blurred) * amount + pixel
+            # Half to even, then saturated, as OpenCV's cast.
+            blurred_row[x] = min(max(np.rint(blurred), 0.0), 255.0)
+        for x in range(width):
+            result[x] = np.uint8(np.int32(blurred_row[x]))
+    return 0

@@ -1,9 +1,12 @@
 """JPEG compression of a frame, as a phone's still or video pipeline leaves it.
 
-The frame goes through OpenCV's JPEG encoder (libjpeg, baseline, 4:2:0
-chroma for colour) and back, so its blocking and ringing are the real
-codec's. The codec is deterministic: the same frame and quality give the
-same bytes.
+The frame is encoded as a baseline JPEG (libjpeg's, 4:2:0 chroma for
+colour) and decoded, so its blocking and ringing are the real codec's. A
+grey frame's round trip is computed by :mod:`rollsim.isp.jpeg_islow`:
+libjpeg's integer transforms and quantisation without the lossless entropy
+coding between them, OpenCV's bits at a third of the time; a colour frame
+goes through OpenCV's encoder and decoder. Both are deterministic: the same
+frame and quality give the same bytes.
 
 Known answer (what the tests check): the encoder's quantisation tables are
 the IJG-scaled tables of ITU-T T.81 Annex K. A block of 8×8 equal pixels has
@@ -15,6 +18,8 @@ pixels are off by at most q_DC/16 plus the rounding.
 from __future__ import annotations
 
 import numpy as np
+
+from rollsim.isp.jpeg_islow import round_trip_grey
 
 LUMA_DC_ENTRY = 16  # ITU-T T.81 Table K.1, element (0, 0)
 
@@ -50,6 +55,8 @@ def jpeg_round_trip(image: np.ndarray, quality: int) -> np.ndarray:
 
     jpeg_dc_step(quality)  # validates the range
     colour = image.ndim == 3
+    if not colour:
+        return round_trip_grey(np.ascontiguousarray(image, dtype=np.uint8), quality)
     # OpenCV's codec takes BGR; rollsim's rgb8 frames are RGB.
     source = cv2.cvtColor(image, cv2.COLOR_RGB2BGR) if colour else image
     ok, encoded = cv2.imencode(".jpg", source, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])

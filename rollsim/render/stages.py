@@ -127,10 +127,15 @@ def output_stage(setup: SceneSetup) -> Stage:
         if pattern is None or method is None:
             raise RollsimError("camera.output = 'rgb8': needs the bayer effect")
 
-        def run(state):
-            state.image = demosaic(lut[state.dn], pattern, method)
+        def finish(mosaic):
+            return demosaic(mosaic, pattern, method)
 
-        return Stage(f"rgb8[{method}]", "output", run)
+        def run(state):
+            state.image = finish(lut[state.dn])
+
+        # The table joins the sensor chain (no frame of DN written); the
+        # demosaicing follows it.
+        return Stage(f"rgb8[{method}]", "output", run, ChainStep("output", lut, finish=finish))
     raise RollsimError(f"camera.output = {cam.output!r} is not available yet in this version of rollsim")
 
 
@@ -225,7 +230,7 @@ def fused_chain_stage(run: list[Stage]) -> Stage:
         elif last == "adc" or output.value is None:  # raw16 output is the DN
             state.dn = result
         if last == "output":
-            state.image = result
+            state.image = result if output.finish is None else output.finish(result)
 
     return Stage("+".join(stage.name for stage in run), run[0].slot, run_fused)
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Literal, Optional
+from typing import Any, Callable, Literal, Optional
 
 import numpy as np
 
@@ -85,11 +85,15 @@ class ChainStep:
         :class:`Adc`, or the output table (None for raw DN).
     stream : str or None
         The named random stream whose key the step's noise uses.
+    finish : callable or None
+        For the output step: what the stage does to the table's image after
+        it (a CFA's demosaicing), run after the chain too.
     """
 
     kind: str
     value: Any = None
     stream: Optional[str] = None
+    finish: Optional[Callable[[np.ndarray], np.ndarray]] = None
 
     def __post_init__(self) -> None:
         if self.kind not in CHAIN_ORDER:

@@ -154,6 +154,23 @@ def test_the_blur_is_exact_in_fixed_point(sigma_rows, sigma_cols):
     assert _blurred(image, sigma_rows, sigma_cols).tobytes() == exact_blur(image, sigma_rows, sigma_cols).tobytes()
 
 
+@pytest.mark.parametrize("shape", [(1, 1), (1, 9), (7, 1), (2, 2), (3, 5), (37, 53), (24, 32, 3)])
+@pytest.mark.parametrize(("filter_", "args"), [("smooth", (1.5, 0.0)), ("smooth", (0.6, 2.3)), ("smooth", (5.0, 0.0)),
+                                               ("sharpen", (0.5, 1.0)), ("sharpen", (2.0, 3.0)), ("sharpen", (0.0, 1.0))])
+def test_the_compiled_filters_give_the_twins_bytes(shape, filter_, args):
+    """Fixed point in integers and float64 against OpenCV's exact float64 filter and numpy's rounding,
+    taps reaching past tiny images included (reflected again and again)."""
+    from rollsim import jit
+    from rollsim.isp import filters
+
+    image = np.random.default_rng(sum(shape)).integers(0, 256, shape, dtype=np.uint8)
+    function = getattr(filters, filter_)
+    with jit.numpy_only():
+        twin = function(image, *args)
+    got = function(image, *args)
+    assert got.shape == image.shape and got.dtype == np.uint8 and got.tobytes() == twin.tobytes()
+
+
 def test_the_8_bit_rounding_is_half_to_even_and_saturates():
     from rollsim.isp.filters import _to_uint8
 
