@@ -113,37 +113,50 @@ _BAD_MEANS = "mean electrons must be finite and non-negative"
 # ------------------------------------------------------------------ numpy
 
 
-def pixel_normals(key: np.uint64, n: int) -> np.ndarray:
-    """One standard normal (float32) per pixel: from the high half of the word of counter 2i."""
-    return normal_from_words(words(key, np.arange(n, dtype=np.uint64) * np.uint64(2)) >> np.uint64(32),
-                             *normal_tables())
+def pixel_normals(key: np.uint64, n: int, offset: int = 0) -> np.ndarray:
+    """One standard normal (float32) per pixel ``offset`` … ``offset + n − 1``: from the high half of the word of counter 2i."""
+    counters = (np.arange(n, dtype=np.uint64) + np.uint64(offset)) * np.uint64(2)
+    return normal_from_words(words(key, counters) >> np.uint64(32), *normal_tables())
 
 
-def shot_numpy(lam: np.ndarray, key: np.uint64, method: str) -> np.ndarray:
-    """Shot noise of flat means ``lam`` (float64), as float32 electrons."""
+def shot_numpy(lam: np.ndarray, key: np.uint64, method: str, offset: int = 0) -> np.ndarray:
+    """Shot noise of flat means ``lam`` (float64; ``lam[0]`` is pixel ``offset``), as float32 electrons."""
     if method == "poisson":
-        return poisson_numpy(lam, key)
+        return poisson_numpy(lam, key, offset)
     mean = lam.astype(np.float32)
-    noise = pixel_normals(key, lam.size)
+    noise = pixel_normals(key, lam.size, offset)
     noise *= np.sqrt(mean)
     noise += mean
     return noise
 
 
-def read_noise_numpy(electrons: np.ndarray, key: np.uint64, sigma_e: float) -> np.ndarray:
-    """``electrons`` (float32) plus Gaussian read noise of σ ``sigma_e`` from counter stream ``key``."""
-    noise = pixel_normals(key, electrons.size)
+def read_noise_numpy(electrons: np.ndarray, key: np.uint64, sigma_e: float, offset: int = 0) -> np.ndarray:
+    """``electrons`` (float32; ``electrons[0]`` is pixel ``offset``) plus Gaussian read noise of σ ``sigma_e``."""
+    noise = pixel_normals(key, electrons.size, offset)
     noise *= np.float32(sigma_e)
     noise += electrons
     return noise
 
 
+# Pixels the numpy twin takes at once: its temporaries (a dozen arrays of
+# 8 bytes a pixel) stay in the cache instead of faulting in fresh pages;
+# each pixel's result depends on its index alone, so the parts change no bit.
+NUMPY_PART_PIXELS = 1 << 17
+
+
 def _chain_numpy(lam, shot, keys, full_well_e, read_sigma_e, adc, lut):
-    electrons = lam.astype(np.float32) if shot is None else shot_numpy(lam, keys.shot, shot)
+    if lam.size <= NUMPY_PART_PIXELS:
+        return _chain_numpy_part(lam, 0, shot, keys, full_well_e, read_sigma_e, adc, lut)
+    return np.concatenate([_chain_numpy_part(lam[first:first + NUMPY_PART_PIXELS], first, shot, keys, full_well_e,
+                                             read_sigma_e, adc, lut) for first in range(0, lam.size, NUMPY_PART_PIXELS)])
+
+
+def _chain_numpy_part(lam, offset, shot, keys, full_well_e, read_sigma_e, adc, lut):
+    electrons = lam.astype(np.float32) if shot is None else shot_numpy(lam, keys.shot, shot, offset)
     if full_well_e is not None:
         np.clip(electrons, 0.0, full_well_e, out=electrons)
     if read_sigma_e is not None:
-        electrons = read_noise_numpy(electrons, keys.read, read_sigma_e)
+        electrons = read_noise_numpy(electrons, keys.read, read_sigma_e, offset)
     if adc is None:
         return electrons
     dn = electrons_to_dn(electrons, adc.gain_dn_per_e, adc.black_level_dn, adc.bits)

@@ -249,10 +249,13 @@ def _small_counts(r: np.ndarray, word: np.ndarray) -> np.ndarray:
     return k
 
 
-def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
-    """Poisson deviates of the flat float64 means ``lam`` from counter stream ``key`` (float32), in numpy."""
+def poisson_numpy(lam: np.ndarray, key: np.uint64, offset: int = 0) -> np.ndarray:
+    """Poisson deviates of the flat float64 means ``lam`` from counter stream ``key`` (float32), in numpy.
+
+    ``lam[0]`` is pixel ``offset`` of the frame (its words are that pixel's).
+    """
     n = lam.size
-    first = words(key, np.arange(n, dtype=np.uint64) * np.uint64(2))
+    first = words(key, (np.arange(n, dtype=np.uint64) + np.uint64(offset)) * np.uint64(2))
     out = np.zeros(n, dtype=np.float64)
     rest = lam.astype(np.float64, copy=True)
     big = np.flatnonzero(rest >= GAUSSIAN_ABOVE_E)
@@ -271,7 +274,7 @@ def poisson_numpy(lam: np.ndarray, key: np.uint64) -> np.ndarray:
     active = np.flatnonzero(rest >= 1.0)  # only tabled pixels can still hold 1 or more
     if active.size:
         second = np.zeros(n, dtype=np.uint64)
-        second[active] = words(key, active.astype(np.uint64) * np.uint64(2) + np.uint64(1))
+        second[active] = words(key, (active.astype(np.uint64) + np.uint64(offset)) * np.uint64(2) + np.uint64(1))
         while active.size:
             ids, g = split_class(rest[active])
             TABLES.build(ids)  # skips the classes already built

@@ -113,8 +113,9 @@ def test_blocks_and_tables_built_mid_frame_keep_the_numpy_twins_bytes(monkeypatc
 
 @pytest.mark.parametrize("shot", ["poisson", "gaussian"])
 @pytest.mark.parametrize("seed", [1, 2, 3])
-def test_every_path_of_the_compiled_shot_noise_is_the_twins(shot, seed):
-    """Means that take every way through the kernel, shuffled across block boundaries.
+def test_every_path_of_the_compiled_shot_noise_is_the_twins(shot, seed, monkeypatch):
+    """Means that take every way through the kernel, shuffled across block boundaries, and
+    the numpy twin in parts of 1,000 pixels (each pixel's words from its index in the frame).
 
     Means below 1 (a remainder drawn alone), class means exactly (no
     remainder), means in [1, 256) (guide bins with and without a CDF step,
@@ -128,6 +129,7 @@ def test_every_path_of_the_compiled_shot_noise_is_the_twins(shot, seed):
     lam = rng.permutation(np.concatenate(parts + [rng.uniform(0.0, 60.0, n - sum(p.size for p in parts))]))
     keys = ChainKeys(np.uint64(seed * 1000 + 1), np.uint64(seed * 1000 + 2))
     adc, lut = Adc(0.3, 64, 12), gray8_lut(64, 12)
+    monkeypatch.setattr(chain, "NUMPY_PART_PIXELS", 1000)
     for kwargs in ({}, {"full_well_e": 2e5, "read_sigma_e": 3.0, "adc": adc, "lut": lut}, {"read_sigma_e": 0.5, "adc": adc}):
         numpy_twin = _chain_numpy(lam, shot, keys, kwargs.get("full_well_e"), kwargs.get("read_sigma_e"),
                                   kwargs.get("adc"), kwargs.get("lut"))
