@@ -56,7 +56,7 @@ def jpeg_round_trip(image: np.ndarray, quality: int) -> np.ndarray:
     jpeg_dc_step(quality)  # validates the range
     colour = image.ndim == 3
     if not colour:
-        return round_trip_grey(np.ascontiguousarray(image, dtype=np.uint8), quality)
+        return round_trip_grey(np.ascontiguousarray(image), quality)  # refuses what is not uint8
     # OpenCV's codec takes BGR; rollsim's rgb8 frames are RGB.
     source = cv2.cvtColor(image, cv2.COLOR_RGB2BGR) if colour else image
     ok, encoded = cv2.imencode(".jpg", source, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])

@@ -166,7 +166,7 @@ def _chain_numpy_part(lam, offset, shot, keys, full_well_e, read_sigma_e, adc, l
 # --------------------------------------------------------------- compiled
 
 
-# Pixels per block of the compiled chain: the block's buffers (~80 KB) stay
+# Pixels per block of the compiled chain: the block's buffers (~144 KB) stay
 # in the L2 cache between its loops.
 BLOCK_PIXELS = 1024
 _TWO_32 = 4294967296.0
@@ -380,7 +380,7 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                     base = cdf_start[c]
                     hi = cdf_size[c] - 1
                     lo = entry[j] & np.int64(K_MASK)
-                    while lo < hi and cdf[base + lo] <= u:  # a bin holds a step or two
+                    while lo < hi and cdf[base + lo] <= u:  # a step or two (the end bins hold the tails)
                         lo += 1
                     electrons_of[j] = np.float32(class_k_lo[j] + lo)
                 for s in range(n_rare):  # means of 256 or more: the tables of up to three classes
