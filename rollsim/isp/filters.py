@@ -38,16 +38,21 @@ def gaussian_kernel(sigma_px: float) -> np.ndarray:
 WEIGHT_BITS = 16
 
 
-def fixed_point_kernel(kernel: np.ndarray) -> np.ndarray:
-    """``kernel``'s weights rounded to multiples of 2^-WEIGHT_BITS, their sum exactly 1 (float64).
+def integer_weights(kernel: np.ndarray) -> np.ndarray:
+    """``kernel``'s weights in units of 2^-WEIGHT_BITS, rounded, their sum exactly 2^WEIGHT_BITS (int64).
 
     Each weight moves by at most 2^-17 (7.6e-6) but the centre one, which
     takes the rounding's remainder too (6e-5 at σ = 1.75, 2e-4 at σ = 20).
     """
-    scale = float(1 << WEIGHT_BITS)
-    weights = np.rint(np.asarray(kernel, dtype=np.float64) * scale)
+    scale = 1 << WEIGHT_BITS
+    weights = np.rint(np.asarray(kernel, dtype=np.float64) * scale).astype(np.int64)
     weights[weights.size // 2] += scale - weights.sum()
-    return weights / scale
+    return weights
+
+
+def fixed_point_kernel(kernel: np.ndarray) -> np.ndarray:
+    """``kernel``'s weights rounded to multiples of 2^-WEIGHT_BITS, their sum exactly 1 (float64, exact)."""
+    return integer_weights(kernel) / float(1 << WEIGHT_BITS)
 
 
 def _blurred(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> np.ndarray:
@@ -61,8 +66,6 @@ def _blurred(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float) -> n
     """
     import cv2
 
-    if image.dtype != np.uint8:
-        raise ValueError(f"the ISP filters take 8-bit images, got {image.dtype}")
     return cv2.sepFilter2D(image, cv2.CV_64F, fixed_point_kernel(gaussian_kernel(sigma_cols_px)),
                            fixed_point_kernel(gaussian_kernel(sigma_rows_px)), borderType=cv2.BORDER_REFLECT_101)
 
@@ -89,10 +92,7 @@ def smooth(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float = 0.0) 
     -------
     ndarray of uint8, the shape of ``image``
     """
-    compiled = _filter_kernel.compiled
-    if compiled is not None:
-        return _filter_compiled(compiled, image, sigma_rows_px, sigma_cols_px, None)
-    return _to_uint8(_blurred(image, sigma_rows_px, sigma_cols_px))
+    return _filtered(image, sigma_rows_px, sigma_cols_px, None)
 
 
 def sharpen(image: np.ndarray, amount: float, sigma_px: float) -> np.ndarray:
@@ -112,30 +112,32 @@ def sharpen(image: np.ndarray, amount: float, sigma_px: float) -> np.ndarray:
     """
     if not (np.isfinite(amount) and amount >= 0):
         raise ValueError(f"amount must be a finite number >= 0, got {amount!r}")
+    return _filtered(image, sigma_px, sigma_px, float(amount))
+
+
+def _filtered(image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float, amount: float | None) -> np.ndarray:
+    """Smoothing, or with ``amount`` unsharp masking: compiled where numba runs, else OpenCV and numpy (same bytes)."""
+    if image.dtype != np.uint8:
+        raise ValueError(f"the ISP filters take 8-bit images, got {image.dtype}")
     compiled = _filter_kernel.compiled
     if compiled is not None:
-        return _filter_compiled(compiled, image, sigma_px, sigma_px, float(amount))
-    # I + a·(I − G) in float64: the detail I − G is exact, then two roundings.
-    values = np.subtract(image, _blurred(image, sigma_px, sigma_px))
-    values *= amount
-    values += image
+        return _filter_compiled(compiled, image, sigma_rows_px, sigma_cols_px, amount)
+    values = _blurred(image, sigma_rows_px, sigma_cols_px)
+    if amount is not None:
+        # I + a·(I − G) in float64: the detail I − G is exact, then two roundings.
+        values = np.subtract(image, values)
+        values *= amount
+        values += image
     return _to_uint8(values)
 
 
 # --------------------------------------------------------------- compiled
 
 
-def _integer_weights(sigma_px: float) -> np.ndarray:
-    """The fixed-point kernel's weights as integers (multiples of 2^-WEIGHT_BITS, times 2^WEIGHT_BITS)."""
-    return np.rint(fixed_point_kernel(gaussian_kernel(sigma_px)) * float(1 << WEIGHT_BITS)).astype(np.int64)
-
-
 def _filter_compiled(compiled, image: np.ndarray, sigma_rows_px: float, sigma_cols_px: float,
                      amount: float | None) -> np.ndarray:
     """The compiled filter, channel by channel: smoothing, or with ``amount`` unsharp masking."""
-    if image.dtype != np.uint8:
-        raise ValueError(f"the ISP filters take 8-bit images, got {image.dtype}")
-    rows, cols = _integer_weights(sigma_rows_px), _integer_weights(sigma_cols_px)
+    rows, cols = integer_weights(gaussian_kernel(sigma_rows_px)), integer_weights(gaussian_kernel(sigma_cols_px))
     out = np.empty_like(image)
     channels = [(image, out)] if image.ndim == 2 else [(image[..., k], out[..., k]) for k in range(image.shape[2])]
     for source, target in channels:

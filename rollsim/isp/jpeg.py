@@ -19,9 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.isp.jpeg_islow import round_trip_grey
-
-LUMA_DC_ENTRY = 16  # ITU-T T.81 Table K.1, element (0, 0)
+from rollsim.isp.jpeg_islow import quantisation_table, round_trip_grey
 
 
 def jpeg_dc_step(quality: int) -> int:
@@ -32,10 +30,7 @@ def jpeg_dc_step(quality: int) -> int:
     quality : int
         1 … 100.
     """
-    if not 1 <= int(quality) <= 100:
-        raise ValueError(f"quality must be in 1 … 100, got {quality!r}")
-    scale = 5000 // quality if quality < 50 else 200 - 2 * quality
-    return int(min(255, max(1, (LUMA_DC_ENTRY * scale + 50) // 100)))
+    return int(quantisation_table(quality)[0, 0])
 
 
 def jpeg_round_trip(image: np.ndarray, quality: int) -> np.ndarray:

@@ -203,9 +203,6 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
     # parts (rollsim.sensor.means) with the operations that would have
     # written the frame: then no float64 frame is written nor read back.
     n_block = BLOCK_PIXELS
-    # Each block's mean electrons: a copy of the frame's (``lam``), or
-    # written from their parts (``parts``, rollsim.sensor.means: the
-    # frame is then never written, nor read back).
     mean_of = np.empty(n_block, dtype=np.float64)
     bits_of = mean_of.view(np.uint64)
     # Each of lam and parts is tested on its own: numba drops a branch
