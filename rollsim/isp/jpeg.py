@@ -46,18 +46,16 @@ def jpeg_round_trip(image: np.ndarray, quality: int) -> np.ndarray:
     -------
     ndarray of uint8, the shape of ``image``
     """
+    jpeg_dc_step(quality)  # validates the range
+    if image.ndim != 3:
+        return round_trip_grey(np.ascontiguousarray(image), quality)  # refuses what is not uint8 (H, W)
     import cv2
 
-    jpeg_dc_step(quality)  # validates the range
-    colour = image.ndim == 3
-    if not colour:
-        return round_trip_grey(np.ascontiguousarray(image), quality)  # refuses what is not uint8
     # OpenCV's codec takes BGR; rollsim's rgb8 frames are RGB.
-    source = cv2.cvtColor(image, cv2.COLOR_RGB2BGR) if colour else image
-    ok, encoded = cv2.imencode(".jpg", source, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    ok, encoded = cv2.imencode(".jpg", cv2.cvtColor(image, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     if not ok:
         raise RuntimeError("OpenCV could not encode the frame as JPEG")
-    decoded = cv2.imdecode(encoded, cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE)
+    decoded = cv2.imdecode(encoded, cv2.IMREAD_COLOR)
     if decoded is None:
         raise RuntimeError("OpenCV could not decode the JPEG it encoded")
-    return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB) if colour else decoded
+    return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)

@@ -27,10 +27,10 @@ import numpy as np
 
 from rollsim.effects.base import SLOTS, Stage, on_box
 from rollsim.errors import RollsimError
-from rollsim.sensor.means import SeparableMeans
 from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.cfa import demosaic
 from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_chain
+from rollsim.sensor.means import SeparableMeans
 
 if TYPE_CHECKING:
     from rollsim.render.setup import SceneSetup

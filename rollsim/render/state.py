@@ -9,7 +9,6 @@ import numpy as np
 
 from rollsim.counter_rng import stream_key
 from rollsim.seeds import rng as named_rng
-
 from rollsim.sensor.means import SeparableMeans, materialize
 
 if TYPE_CHECKING:
