@@ -10,8 +10,14 @@ from rollsim.sensor.chain import ChainKeys, _chain_numpy, run_chain, shot_poisso
 from rollsim.sensor.poisson import (
     CLASS_BITS,
     CLASS_MEANS,
+    DIRECT_CLASSES,
     GAUSSIAN_ABOVE_E,
+    K_MASK,
+    STRADDLE,
+    TABLE_BINS,
     TABLES,
+    UNBUILT,
+    PoissonTables,
     class_mean,
     class_of_remainder,
     exp_neg,
@@ -99,6 +105,48 @@ def test_tables_are_built_once_and_do_not_change_the_result():
     built = int((TABLES.slot >= 0).sum())
     again = shot_poisson(key, lam)
     assert np.array_equal(first, again) and int((TABLES.slot >= 0).sum()) == built
+
+
+def test_direct_rows_hold_each_bins_count_and_flag_and_unbuilt_before():
+    """The direct table (classes of means below 256) holds k_lo + the guide's offset, with the same flag."""
+    tables = PoissonTables()
+    ids = np.array([0, 1, 700, DIRECT_CLASSES - 1, DIRECT_CLASSES, DIRECT_CLASSES + 300])
+    tables.build(ids)
+    direct = tables.direct.reshape(DIRECT_CLASSES, TABLE_BINS)
+    guide = tables.guide.reshape(-1, TABLE_BINS)
+    for c in ids[ids < DIRECT_CLASSES]:
+        row = guide[tables.slot[c]]
+        assert np.array_equal(direct[c] & K_MASK, tables.k_lo[c] + (row & K_MASK))
+        assert np.array_equal(direct[c] & STRADDLE, row & STRADDLE)
+        assert not np.any(direct[c] == UNBUILT)
+    untouched = np.setdiff1d(np.arange(DIRECT_CLASSES), ids)
+    assert np.all(direct[untouched] == UNBUILT)
+    # The count at a bin's start is the CDF's inverse there (u = bin / 1024): checked on one class.
+    c = 700
+    cdf = tables.cdf[tables.cdf_start[c]:tables.cdf_start[c] + tables.cdf_size[c]]
+    u = np.arange(TABLE_BINS) / TABLE_BINS
+    assert np.array_equal(direct[c] & K_MASK, tables.k_lo[c] + np.searchsorted(cdf, u, side="right"))
+
+
+FRESH_PROCESS = """
+import numpy as np
+from rollsim.sensor.chain import shot_poisson
+from rollsim.sensor.poisson import poisson_numpy
+rng = np.random.default_rng(1)
+# Every class of means below 256 is met for the first time: the kernel stops, builds and goes on, block after block.
+lam = np.concatenate([rng.uniform(1, 256, 20000), np.full(5000, 3.0), rng.uniform(256, 5e3, 2000)])
+key = np.uint64(99)
+print(np.array_equal(shot_poisson(key, lam), poisson_numpy(lam, key)))
+"""
+
+
+def test_a_fresh_process_builds_the_classes_it_meets_and_draws_the_twins_bytes():
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", FRESH_PROCESS], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "True"
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -1.0])

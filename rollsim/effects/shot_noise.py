@@ -33,7 +33,7 @@ def build_stage(setup: SceneSetup, params: ShotNoise) -> StageRun:
     method = params.method
 
     def run(state: FrameState) -> None:
-        state.electrons = run_chain(state.electrons, method, ChainKeys(shot=state.counter_key(STREAM)))
+        state.electrons = run_chain(state.means_or_electrons, method, ChainKeys(shot=state.counter_key(STREAM)))
 
     return run
 

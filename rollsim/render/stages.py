@@ -219,10 +219,7 @@ def fused_chain_stage(run: list[Stage]) -> Stage:
     def run_fused(state):
         keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
                          read=None if read is None else state.counter_key(read.stream))
-        # The means as parts where no stage has written the frame: the
-        # compiled chain then writes each block's means itself.
-        means = state.electrons if state.means is None else state.means
-        result = run_chain(means, None if shot is None else shot.value, keys, full_well_e=full_well,
+        result = run_chain(state.means_or_electrons, None if shot is None else shot.value, keys, full_well_e=full_well,
                            read_sigma_e=None if read is None else read.value, adc=adc,
                            lut=None if output is None else output.value)
         if last in ("shot", "full_well", "read"):

@@ -89,6 +89,15 @@ class FrameState:
         self.means = None
 
     @property
+    def means_or_electrons(self) -> SeparableMeans | np.ndarray:
+        """The mean electrons as their parts while no stage has written the frame, else the frame.
+
+        For the sensor chain (:func:`rollsim.sensor.chain.run_chain`), which
+        writes each block's means from the parts itself.
+        """
+        return self._electrons if self.means is None else self.means
+
+    @property
     def led_footprint(self) -> Footprint:
         """The LED coverage of this frame."""
         return self.setup.footprint if self.footprint is None else self.footprint

@@ -43,6 +43,7 @@ from rollsim.sensor.poisson import (
     CLASS_BITS,
     CLASS_MASK,
     CLASS_MEANS,
+    DIRECT_ABOVE_E,
     EXP_NEG_COEFFICIENTS,
     EXPONENT_BIAS,
     EXPONENT_SHIFT,
@@ -55,6 +56,7 @@ from rollsim.sensor.poisson import (
     STRADDLE,
     TABLE_BINS,
     TABLES,
+    UNBUILT,
     poisson_numpy,
 )
 
@@ -170,13 +172,12 @@ def _chain_numpy_part(lam, offset, shot, keys, full_well_e, read_sigma_e, adc, l
 # in the L2 cache between its loops.
 BLOCK_PIXELS = 1024
 _TWO_32 = 4294967296.0
-# A guide row for the kernel to read while no class is built (its entries are not used).
-_NO_GUIDE = np.zeros(TABLE_BINS, dtype=np.uint16)
 
 
 @kernel
 def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, read_key, adc, lut, out,
-                  cdf, slot, cdf_start, cdf_size, k_lo, class_means, exp_coefficients, z_body, z_low, z_high):
+                  cdf, slot, cdf_start, cdf_size, k_lo, direct, class_means, exp_coefficients, z_body, z_low,
+                  z_high):
     # One flat body: numba passes array arguments to a called function with
     # reference counting, which cost several times the work itself. A step
     # the chain does not take is passed as None (no shot noise, Gaussian shot
@@ -219,14 +220,14 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
     # cut off, written as bits and read as float64 (no table to look up).
     class_bits = np.empty(n_block, dtype=np.uint64)
     class_mean = class_bits.view(np.float64)
-    class_k_lo = np.empty(n_block, dtype=np.int64)
     entry = np.empty(n_block, dtype=np.int64)
-    index = np.empty(n_block, dtype=np.int64)
+    # Unsigned indices: numba wraps a negative signed index around, a select per lookup.
+    index = np.empty(n_block, dtype=np.uint64)
     slow = np.empty(n_block, dtype=np.int64)  # the other pixels' places
     electrons_of = np.empty(n_block, dtype=np.float32)
     read_word = np.empty(n_block, dtype=np.uint64)
     normal = np.empty(n_block, dtype=np.float32)
-    level_of = np.empty(n_block, dtype=np.int64)
+    level_of = np.empty(n_block, dtype=np.uint64)
     need = np.empty(n_block, dtype=np.int64)  # what a pixel's shot noise needs beyond the common case
     bin_place = np.empty(n_block, dtype=np.int64)  # pixels whose guide bin holds a CDF step
     rest_place = np.empty(n_block, dtype=np.int64)  # pixels whose remainder draws more than 0
@@ -298,14 +299,19 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                 z = (np.uint64(i) * np.uint64(2) + np.uint64(1)) * GAMMA + shot_key
                 z = (z ^ (z >> np.uint64(30))) * MIX1
                 z = (z ^ (z >> np.uint64(27))) * MIX2
-                word[j] = z ^ (z >> np.uint64(31))
+                w = z ^ (z >> np.uint64(31))
+                word[j] = w
                 mean = mean_of[j]
                 n_bad += np.int64(not ((mean >= 0.0) & (mean < np.inf)))
                 bits = bits_of[j]
                 c = ((np.int64(bits >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
                     (bits >> MANTISSA_SHIFT) & CLASS_MASK)
-                ident[j] = c if (mean >= 1.0) & (mean < 256.0) else np.int64(-1)
+                classed = (mean >= 1.0) & (mean < DIRECT_ABOVE_E)
+                ident[j] = c if classed else np.int64(-1)
                 class_bits[j] = bits & KEEP_CLASS_BITS
+                # The direct table's place (class 0's row for an unclassed mean: read, not used).
+                index[j] = np.uint64(c if classed else np.int64(0)) * np.uint64(TABLE_BINS) + (
+                    (w >> np.uint64(32)) >> BIN_SHIFT)
             if n_bad:
                 return -1  # refused by the caller
             if guide is None:
@@ -313,7 +319,7 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                 n_tail = 0
                 for j in range(n):
                     top = word[j] >> np.uint64(48)
-                    normal[j] = z_body[np.int64(top)]
+                    normal[j] = z_body[top]
                     n_tail += np.int64((top == 0) | (top == 0xFFFF))  # the two outer bins (2 words in 65,536)
                 if n_tail:  # their tails
                     for j in range(n):
@@ -327,18 +333,8 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                     mean32 = np.float32(mean_of[j])
                     electrons_of[j] = normal[j] * np.sqrt(mean32) + mean32
             else:
-                n_missing = 0
-                for j in range(n):  # the guide entry's place, and the class's lowest count
-                    c = ident[j]
-                    cc = max(c, np.int64(0))
-                    row = slot[cc]
-                    n_missing += np.int64((c >= 0) & (row < 0))
-                    index[j] = max(row, np.int64(0)) * TABLE_BINS + np.int64((word[j] >> np.uint64(32)) >> BIN_SHIFT)
-                    class_k_lo[j] = k_lo[cc]
-                if n_missing:
-                    return first  # a class without its table: built, then this block again
-                for j in range(n):
-                    entry[j] = guide[index[j]]
+                for j in range(n):  # the one lookup of the common case: the count, or where to look further
+                    entry[j] = direct[index[j]]
                 for j in range(n):  # vectorised: the common case's count, and what else each pixel needs
                     mean = mean_of[j]
                     classed = ident[j] >= 0
@@ -353,7 +349,7 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                                + ((classed & (np.float64(w & LOW32) >= bound))
                                   | ((mean < 1.0) & (np.float64(w >> np.uint64(32)) >= bound))) * 2
                                + (~classed & (mean >= 1.0)) * 4)
-                    electrons_of[j] = np.float32(class_k_lo[j] + (e & np.int64(K_MASK))) if classed else np.float32(0.0)
+                    electrons_of[j] = np.float32(e & np.int64(K_MASK)) if classed else np.float32(0.0)
                 m = 0
                 for j in range(n):
                     slow[m] = j
@@ -373,13 +369,17 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                 for s in range(n_bin):  # the count inside the bin: the first whose CDF exceeds u
                     j = bin_place[s]
                     c = ident[j]
-                    u = np.float64(word[j] >> np.uint64(32)) * WORD_SCALE
                     base = cdf_start[c]
                     hi = cdf_size[c] - 1
-                    lo = entry[j] & np.int64(K_MASK)
+                    # A class not built, or built (in another thread) after the CDFs given were
+                    # taken: built, then this block again.
+                    if entry[j] == UNBUILT or base + hi >= cdf.size:
+                        return first
+                    u = np.float64(word[j] >> np.uint64(32)) * WORD_SCALE
+                    lo = (entry[j] & np.int64(K_MASK)) - k_lo[c]
                     while lo < hi and cdf[base + lo] <= u:  # a step or two (the end bins hold the tails)
                         lo += 1
-                    electrons_of[j] = np.float32(class_k_lo[j] + lo)
+                    electrons_of[j] = np.float32(k_lo[c] + lo)
                 for s in range(n_rare):  # means of 256 or more: the tables of up to three classes
                     j = rare_place[s]
                     i = first + j
@@ -409,8 +409,9 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                         else:
                             c = ((np.int64(bits_of[j] >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
                                 (bits_of[j] >> MANTISSA_SHIFT) & CLASS_MASK)
-                        if slot[c] < 0:
-                            return first  # a class without its table: built, then this block again
+                        if slot[c] < 0 or (slot[c] + 1) * TABLE_BINS > guide.size or (
+                                cdf_start[c] + cdf_size[c] > cdf.size):
+                            return first  # a class without its table (in the arrays given): built, then this block again
                         g = guide[slot[c] * TABLE_BINS + np.int64(u_word >> BIN_SHIFT)]
                         lo = np.int64(g & K_MASK)
                         if g & STRADDLE:
@@ -467,7 +468,7 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                 top = value >> np.uint64(16)
                 n_tail += np.int64((top == 0) | (top == 0xFFFF))  # the two outer bins (2 words in 65,536)
             for j in range(n):
-                normal[j] = z_body[np.int64(read_word[j] >> np.uint64(16))]
+                normal[j] = z_body[read_word[j] >> np.uint64(16)]
             if n_tail:  # their tails
                 for j in range(n):
                     top = read_word[j] >> np.uint64(16)
@@ -485,7 +486,7 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                 out[first + j] = electrons
             else:
                 level = electrons * adc[0] + adc[1]
-                level_of[j] = np.int64(np.uint16(min(max(level, np.float32(0.0)), adc[2])))
+                level_of[j] = np.uint64(np.uint16(min(max(level, np.float32(0.0)), adc[2])))
         if adc is not None:
             if lut is None:
                 for j in range(n):
@@ -510,8 +511,6 @@ def _chain_compiled(compiled, means, shot, keys, full_well_e, read_sigma_e, adc,
     start = 0
     while start < n:
         guide, *tables = TABLES.arrays()
-        if guide.size == 0:  # the kernel reads a row of the guide for every pixel, and uses those of built classes
-            guide = _NO_GUIDE
         stop = int(compiled(
             lam, parts, start,
             None if shot is None else np.uint64(keys.shot),
@@ -627,7 +626,10 @@ def run_chain(lam: np.ndarray | SeparableMeans, shot: Optional[Literal["poisson"
         if compiled is not None and shape[0] * shape[1] > 0:
             return _chain_compiled(compiled, lam, shot, keys, full_well_e, read_sigma_e, adc, lut).reshape(shape)
         lam = materialize(lam)
-    flat = np.ascontiguousarray(lam, dtype=np.float64).ravel()
+    # Shot noise reads a mean's float64 bits; a chain that starts later takes
+    # float32 electrons as they are (widening them cost a pass over the frame).
+    wide = shot is not None or np.asarray(lam).dtype != np.float32
+    flat = np.ascontiguousarray(lam, dtype=np.float64 if wide else np.float32).ravel()
     if compiled is None or flat.size == 0:
         if shot is not None and flat.size and not (np.isfinite(flat).all() and flat.min() >= 0.0):
             raise ValueError(_BAD_MEANS)

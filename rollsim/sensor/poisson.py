@@ -63,6 +63,16 @@ KEEP_CLASS_BITS = ~np.uint64((1 << (52 - CLASS_BITS)) - 1)
 EXPONENT_SHIFT = np.uint64(52)
 EXPONENT_BIAS = 1023
 BIN_SHIFT = np.uint64(32 - BIN_BITS)
+# Classes of means below 2^DIRECT_EXPONENT (ids below DIRECT_CLASSES, the means of
+# most pixels) also keep their guide rows at fixed places, with the counts
+# themselves rather than offsets from k_lo: the compiled chain's common case
+# then looks up one table for its count, where it would look up three (the
+# class's row, its k_lo and the entry), which cost a third of the chain.
+DIRECT_EXPONENT = 8
+DIRECT_CLASSES = DIRECT_EXPONENT << CLASS_BITS
+DIRECT_ABOVE_E = float(1 << DIRECT_EXPONENT)
+# A direct row's entries until its class is built; no count of those classes comes near 2^15 − 1.
+UNBUILT = np.uint16(0xFFFF)
 # Sequential inversion of a remainder below 1 stops here (P(k > 40) < 1e-48).
 MAX_SMALL_K = 40
 # (-1)^n / n!, n = 0 … 14, highest first: e^-r for 0 ≤ r < 1 by Horner (truncation below 1/15! = 8e-13).
@@ -132,6 +142,14 @@ class PoissonTables:
     slot : ndarray of int64, shape (N_CLASSES,)
         Row of a class in ``guide``, or −1 before it is built.
     cdf_start, cdf_size, k_lo : ndarray of int64, shape (N_CLASSES,)
+    direct : ndarray of uint16, shape (DIRECT_CLASSES · 1024,)
+        The rows of ``guide`` of the classes below :data:`DIRECT_CLASSES`,
+        at row = class id, with the count itself (not its offset from
+        ``k_lo``) in the low 15 bits; :data:`UNBUILT` before the class is
+        built. It is filled in place, after the arrays above, so that a
+        kernel running meanwhile in another thread reads either UNBUILT or
+        a row whose class is complete in the arrays it was given (it checks
+        the CDF's extent against those).
     """
 
     def __init__(self) -> None:
@@ -141,6 +159,7 @@ class PoissonTables:
         self.cdf_start = np.zeros(N_CLASSES, dtype=np.int64)
         self.cdf_size = np.zeros(N_CLASSES, dtype=np.int64)
         self.k_lo = np.zeros(N_CLASSES, dtype=np.int64)
+        self.direct = np.full(DIRECT_CLASSES * TABLE_BINS, UNBUILT, dtype=np.uint16)
         self._lock = threading.Lock()
 
     def missing(self, ids: np.ndarray) -> np.ndarray:
@@ -164,10 +183,16 @@ class PoissonTables:
             self.guide = np.concatenate([self.guide, guide.ravel()])
             self.cdf = np.concatenate([self.cdf, cdf])
             self.slot[ids] = first_slot + np.arange(ids.size)
+            near = ids < DIRECT_CLASSES
+            counts = (guide[near] & K_MASK).astype(np.int64) + k_lo[near, None]
+            if counts.max(initial=0) >= UNBUILT & K_MASK:
+                raise ValueError("a direct Poisson table's counts reach 15 bits")
+            rows = counts.astype(np.uint16) | (guide[near] & STRADDLE)
+            self.direct.reshape(DIRECT_CLASSES, TABLE_BINS)[ids[near]] = rows
 
     def arrays(self) -> tuple:
         """What a kernel reads, in its argument order."""
-        return self.guide, self.cdf, self.slot, self.cdf_start, self.cdf_size, self.k_lo
+        return self.guide, self.cdf, self.slot, self.cdf_start, self.cdf_size, self.k_lo, self.direct
 
 
 # The mean of every class id, for kernels (exactly the masked means of split_class).
