@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
+from rollsim.jit import numpy_only
 from rollsim.render import RenderPipeline
-from rollsim.sensor.blooming import bloom
+from rollsim.sensor.blooming import _bloom_kernel, bloom
 
 from conftest import make_scene
 
@@ -67,6 +68,29 @@ def test_total_charge_is_conserved_when_nothing_leaves():
     total = wide.sum()
     lost = bloom(wide, C)
     assert wide.sum() + lost == pytest.approx(total, rel=1e-13)
+
+
+@pytest.mark.parametrize("layout", ["region", "everywhere", "two far apart"])
+@pytest.mark.parametrize("spill_fraction", [1.0, 0.3])
+def test_compiled_pass_equals_the_numpy_twin_byte_for_byte(layout, spill_fraction):
+    """The kernel takes the span of columns between the first and last over-full ones; the twin only those."""
+    if _bloom_kernel.compiled is None:
+        pytest.skip("numba is not used here")
+    rng = np.random.default_rng(11)
+    frame = rng.gamma(2.0, 0.3 * C, size=(300, 400)).astype(np.float32)
+    if layout == "region":
+        frame = np.minimum(frame, np.float32(0.9 * C))
+        frame[100:180, 150:260] *= np.float32(3.0)
+    elif layout == "two far apart":
+        frame = np.minimum(frame, np.float32(0.9 * C))
+        frame[5, 390], frame[290, 2] = 40 * C, 3 * C
+    compiled, twin = frame.copy(), frame.copy()
+    lost = bloom(compiled, C, spill_fraction)
+    with numpy_only():
+        lost_twin = bloom(twin, C, spill_fraction)
+    assert compiled.tobytes() == twin.tobytes()
+    assert lost == lost_twin
+    assert not np.array_equal(compiled, frame)
 
 
 def test_blooming_in_the_pipeline_fills_off_stripes_next_to_over_full_on_stripes():
