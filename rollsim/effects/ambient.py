@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from rollsim.effects.base import Effect, NoParams, StageRun, on_box
 
 if TYPE_CHECKING:
@@ -32,15 +34,16 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
         fp = state.led_footprint
         correction = static_correction if state.footprint is None else correction_of(fp)
         factor = state.ambient_row_factor  # flicker
-        if factor is None and state.means is not None and state.means.background is None:
-            # Joins the LED's light as a part: no frame written (rollsim.sensor.means).
-            state.means = state.means.with_ambient(background, fp.rows, fp.cols, correction)
-            return
         if factor is None:
-            state.electrons += background
-        else:
-            state.electrons += background * factor[:, None]
+            level = background
+        else:  # a level per row, or a map
+            level = background * (factor if np.ndim(background) == 0 else factor[:, None])
             correction = correction * factor[fp.rows, None]
+        if state.means is not None and state.means.background is None:
+            # Joins the LED's light as a part: no frame written (rollsim.sensor.means).
+            state.means = state.means.with_ambient(level, fp.rows, fp.cols, correction)
+            return
+        state.electrons += level[:, None] if np.ndim(level) == 1 else level
         if correction.size:
             state.electrons[fp.rows, fp.cols] += correction
 

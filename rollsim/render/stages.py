@@ -181,15 +181,18 @@ def assemble_stages(setup: SceneSetup) -> list[Stage]:
 # ------------------------------------------------------------ the chain
 
 
-# A chain starts where the electrons become float32: at shot or read noise.
-# (Without noise the full-well clip and the ADC work on the float64 means.)
-_CHAIN_STARTS = ("shot", "read")
+# The steps that make the electrons float32: a chain that starts with one
+# always runs fused. A chain that starts later (the clip or the ADC after
+# blooming or a fixed-pattern offset) runs fused when the electrons it is
+# given are float32, as the kernel takes them; on the float64 means of a
+# render without noise its stages run one by one, on float64 as before.
+_NOISE_STEPS = ("shot", "read")
 
 
 def _chain_run_length(stages: list[Stage], first: int) -> int:
-    """How many stages from ``first`` on form one sensor chain: a noise step, then steps in chain order."""
+    """How many stages from ``first`` on form one sensor chain: steps in chain order."""
     step = stages[first].chain_step
-    if step is None or step.kind not in _CHAIN_STARTS:
+    if step is None:
         return 0
     rank = CHAIN_ORDER.index(step.kind)
     length = 1
@@ -216,7 +219,13 @@ def fused_chain_stage(run: list[Stage]) -> Stage:
     output = steps.get("output")
     last = CHAIN_ORDER[max(CHAIN_ORDER.index(kind) for kind in steps)]
 
+    noise_first = run[0].chain_step is not None and run[0].chain_step.kind in _NOISE_STEPS
+
     def run_fused(state):
+        if not noise_first and (state.means is not None or state.electrons.dtype != np.float32):
+            for stage in run:  # float64 electrons: the stages' own arithmetic
+                stage(state)
+            return
         keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
                          read=None if read is None else state.counter_key(read.stream))
         result = run_chain(state.means_or_electrons, None if shot is None else shot.value, keys, full_well_e=full_well,

@@ -254,13 +254,14 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                 m = min(n - j, width - x)  # the rest of the block on row y
                 # Row slices as 1-D views, indexed from 0: plain loops LLVM vectorises.
                 into = mean_of[j:j + m]
+                row_level = level_map[y, 0] if level_kind == 3 else level  # a level per row, or one
                 if level_kind == 2:
                     base = level_map[y, x:x + m]
                     for k in range(m):
                         into[k] = 0.0 + base[k]
-                elif level_kind == 1:
+                elif level_kind == 1 or level_kind == 3:
                     for k in range(m):
-                        into[k] = 0.0 + level
+                        into[k] = 0.0 + row_level
                 else:
                     for k in range(m):
                         into[k] = 0.0
@@ -274,9 +275,9 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                         base = level_map[y, lo:hi]
                         for k in range(hi - lo):
                             lit[k] = cover[k] * signal + base[k]
-                    elif level_kind == 1:
+                    elif level_kind == 1 or level_kind == 3:
                         for k in range(hi - lo):
-                            lit[k] = cover[k] * signal + level
+                            lit[k] = cover[k] * signal + row_level
                     else:
                         for k in range(hi - lo):
                             lit[k] = cover[k] * signal

@@ -41,9 +41,10 @@ class SeparableMeans:
         The LED's light on its box (relative; per-pixel rates folded in).
     row_signal : ndarray of float64, shape (rows,)
         Electrons per unit of coverage in each row of the box.
-    background : float, ndarray of float64 of shape ``shape``, or None
-        Electrons of the ambient light on each pixel (one level, or a map:
-        vignetting, a colour filter), or None without ambient light.
+    background : float, ndarray of float64 of shape ``shape`` or ``(H,)``, or None
+        Electrons of the ambient light on each pixel: one level, a level
+        per row (flicker), or a map (vignetting, a colour filter); None
+        without ambient light.
     face_rows, face_cols : slice or None
         The box of ``correction``.
     correction : ndarray of float64 or None
@@ -63,13 +64,13 @@ class SeparableMeans:
 
     def with_ambient(self, background: float | np.ndarray, face_rows: slice, face_cols: slice,
                      correction: np.ndarray) -> SeparableMeans:
-        """These means plus a background (a level or a map) and a correction on the face's box."""
+        """These means plus a background (a level, a level per row or a map) and a correction on the face's box."""
         if self.background is not None:
             raise ValueError("the means already hold an ambient background")
         if np.ndim(background) == 0:
             background = float(background)
-        elif np.shape(background) != self.shape:
-            raise ValueError(f"a background map of shape {np.shape(background)} on a frame of {self.shape}")
+        elif np.shape(background) not in (self.shape, self.shape[:1]):
+            raise ValueError(f"a background of shape {np.shape(background)} on a frame of {self.shape}")
         return replace(self, background=background, face_rows=face_rows, face_cols=face_cols, correction=correction)
 
 
@@ -81,7 +82,9 @@ def materialize(means: SeparableMeans) -> np.ndarray:
     """
     out = np.zeros(means.shape)
     np.multiply(means.coverage, means.row_signal[:, None], out=out[means.rows, means.cols])
-    if means.background is not None:
+    if isinstance(means.background, np.ndarray) and means.background.ndim == 1:
+        out += means.background[:, None]
+    elif means.background is not None:
         out += means.background
     if means.correction is not None:
         out[means.face_rows, means.face_cols] += means.correction
@@ -93,13 +96,16 @@ def kernel_parts(means: SeparableMeans) -> tuple:
 
     ``(shape, box, coverage, row_signal, level_kind, level, level_map, face, correction)``:
     ``box`` and ``face`` are (first row, rows, first column, columns);
-    ``level_kind`` is 0 (no background), 1 (the level ``level``) or 2 (the
-    map ``level_map``); an absent map or correction is a 1 × 1 zero array
-    (a face of no rows).
+    ``level_kind`` is 0 (no background), 1 (the level ``level``), 2 (the
+    map ``level_map``) or 3 (a level per row, ``level_map`` of shape
+    (H, 1)); an absent map or correction is a 1 × 1 zero array (a face of
+    no rows).
     """
     unused = np.zeros((1, 1))
     level_kind, level, level_map = 0, 0.0, unused
-    if isinstance(means.background, np.ndarray):
+    if isinstance(means.background, np.ndarray) and means.background.ndim == 1:
+        level_kind, level_map = 3, np.ascontiguousarray(means.background, dtype=np.float64).reshape(-1, 1)
+    elif isinstance(means.background, np.ndarray):
         level_kind, level_map = 2, np.ascontiguousarray(means.background, dtype=np.float64)
     elif means.background is not None:
         level_kind, level = 1, float(means.background)

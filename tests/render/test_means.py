@@ -22,7 +22,8 @@ def stagewise(means: SeparableMeans) -> np.ndarray:
     out = np.zeros(means.shape)
     out[means.rows, means.cols] = means.coverage * means.row_signal[:, None]
     if means.background is not None:
-        out += means.background
+        background = np.asarray(means.background)
+        out += background[:, None] if background.ndim == 1 else background
     if means.correction is not None:
         out[means.face_rows, means.face_cols] += means.correction
     return out
@@ -34,7 +35,8 @@ def random_means(rng, shape, light, face, background="level"):
                            rng.random(r1 - r0) * 40.0)
     if background:
         (f0, f1), (g0, g1) = face
-        level = rng.random() * 7.0 if background == "level" else rng.random(shape) * 7.0
+        level = {"level": lambda: rng.random() * 7.0, "rows": lambda: rng.random(shape[0]) * 7.0,
+                 "map": lambda: rng.random(shape) * 7.0}[background]()
         means = means.with_ambient(level, slice(f0, f1), slice(g0, g1), rng.random((f1 - f0, g1 - g0)) * 2.0)
     return means
 
@@ -53,7 +55,7 @@ CHAINS = [dict(shot="poisson", full_well_e=60.0, read_sigma_e=2.0, adc=Adc(3.0, 
 
 
 @pytest.mark.parametrize(("shape", "light", "face"), CASES)
-@pytest.mark.parametrize("background", ["level", "map", None])
+@pytest.mark.parametrize("background", ["level", "rows", "map", None])
 def test_the_frame_written_from_the_parts_is_the_stages(shape, light, face, background):
     means = random_means(np.random.default_rng(len(light) + shape[0]), shape, light, face, background)
     frame = materialize(means)
@@ -62,7 +64,7 @@ def test_the_frame_written_from_the_parts_is_the_stages(shape, light, face, back
 
 
 @pytest.mark.parametrize(("shape", "light", "face"), CASES)
-@pytest.mark.parametrize("background", ["level", "map", None])
+@pytest.mark.parametrize("background", ["level", "rows", "map", None])
 @pytest.mark.parametrize("steps", CHAINS, ids=["poisson-gray8", "gaussian-raw", "electrons"])
 def test_the_chain_given_the_parts_renders_the_bytes_of_the_frame(shape, light, face, background, steps):
     means = random_means(np.random.default_rng(len(light) + shape[1]), shape, light, face, background)
@@ -115,3 +117,22 @@ def test_reading_the_electrons_writes_the_frame_once_and_setting_them_drops_the_
     state.means = parts
     state.electrons = np.zeros(3)
     assert state.means is None and state.electrons.shape == (3,)
+
+
+@pytest.mark.parametrize(("name", "overrides"), [("effect-flicker", []), ("effect-vignetting", ["effects.flicker={}"]),
+                                                 ("paper-geometric", [])])
+def test_ambient_as_parts_is_the_frame_it_would_have_added_to(name, overrides):
+    """Flicker's level per row (and with vignetting, a map) joins the parts; read as a frame, it is the bytes
+    of the ambient stage adding to a frame already written."""
+    pipeline = RenderPipeline(load_scene(name, SMALL + overrides))
+    stages = pipeline.stages
+    ambient = next(i for i, stage in enumerate(stages) if stage.name == "ambient")
+    as_parts, as_frame = FrameState(pipeline.setup, 4), FrameState(pipeline.setup, 4)
+    for state in (as_parts, as_frame):
+        for stage in stages[:ambient]:
+            stage(state)
+    assert as_frame.electrons.dtype == np.float64  # written before the ambient stage: it adds to the frame
+    stages[ambient](as_parts)
+    stages[ambient](as_frame)
+    assert as_parts.means is not None and as_frame.means is None
+    assert as_parts.electrons.tobytes() == as_frame.electrons.tobytes()
