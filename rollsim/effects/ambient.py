@@ -43,7 +43,7 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
             # Joins the LED's light as a part: no frame written (rollsim.sensor.means).
             state.means = state.means.with_ambient(level, fp.rows, fp.cols, correction)
             return
-        state.electrons += level[:, None] if np.ndim(level) == 1 else level
+        state.electrons += level[:, None] if isinstance(level, np.ndarray) and level.ndim == 1 else level
         if correction.size:
             state.electrons[fp.rows, fp.cols] += correction
 
