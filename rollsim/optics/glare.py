@@ -156,10 +156,16 @@ def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols
     return np.take(np.take(quadrant, rows, axis=0), cols, axis=1)
 
 
-def _wrapped_kernel(quadrant: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """The whole kernel laid out for a circular convolution of ``shape``: offset (dy, dx) at (dy mod H, dx mod W)."""
+def _wrapped_kernel(quadrant: np.ndarray, shape: tuple[int, int], out: np.ndarray | None = None) -> np.ndarray:
+    """The whole kernel laid out for a circular convolution of ``shape``: offset (dy, dx) at (dy mod H, dx mod W).
+
+    Written into ``out`` (float32, ``shape``) where given, else a new array.
+    """
     ry, rx = quadrant.shape[0] - 1, quadrant.shape[1] - 1
-    out = np.zeros(shape, dtype=np.float32)
+    if out is None:
+        out = np.zeros(shape, dtype=np.float32)
+    else:
+        out[...] = 0.0
     out[: ry + 1, : rx + 1] = quadrant
     out[: ry + 1, shape[1] - rx:] = quadrant[:, rx:0:-1]
     out[shape[0] - ry:, : rx + 1] = quadrant[ry:0:-1, :]
@@ -247,16 +253,19 @@ def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1) 
         shape = (fft.next_fast_len(wanted[0], True), fft.next_fast_len(wanted[1], True))
         spectrum = fft.rfft2(_zero_padded(light, shape), workers=workers)
         kernel_real = np.ascontiguousarray(fft.rfft2(_wrapped_kernel(quadrant, shape), workers=workers).real)
-    else:
-        shape = (pocketfft.good_size(wanted[0], True), pocketfft.good_size(wanted[1], True))  # scipy's next_fast_len
-        spectrum = pocketfft.r2c(_zero_padded(light, shape), (0, 1), True, 0, None, workers)
-        kernel_real = np.ascontiguousarray(pocketfft.r2c(_wrapped_kernel(quadrant, shape), (0, 1), True, 0, None,
-                                                         workers).real)
-    # The real and imaginary parts side by side, each times the kernel's (real) transform.
-    spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_real[..., None]
-    if pocketfft is None:
+        # The real and imaginary parts side by side, each times the kernel's (real) transform.
+        spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_real[..., None]
         return fft.irfft2(spectrum, shape, workers=workers)
-    return pocketfft.c2r(spectrum, (0, 1), shape[1], False, 2, None, workers)
+    # The same transforms, with one real buffer of the transforms' size for
+    # the light, then the kernel, then the result: a set-up pays more for
+    # fresh pages than for the transforms' copies.
+    shape = (pocketfft.good_size(wanted[0], True), pocketfft.good_size(wanted[1], True))  # scipy's next_fast_len
+    plane = _zero_padded(light, shape)
+    spectrum = pocketfft.r2c(plane, (0, 1), True, 0, None, workers)
+    kernel_spectrum = pocketfft.r2c(_wrapped_kernel(quadrant, shape, out=plane), (0, 1), True, 0, None, workers)
+    spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_spectrum.real[..., None]
+    del kernel_spectrum
+    return pocketfft.c2r(spectrum, (0, 1), shape[1], False, 2, plane, workers)
 
 
 def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float, core_px: float,
