@@ -39,9 +39,10 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
         else:  # a level per row, or a map
             level = background * (factor if np.ndim(background) == 0 else factor[:, None])
             correction = correction * factor[fp.rows, None]
-        if state.means is not None and state.means.background is None:
+        means = state.means
+        if means is not None and means.background is None and means.gain is None and means.offset is None:
             # Joins the LED's light as a part: no frame written (rollsim.sensor.means).
-            state.means = state.means.with_ambient(level, fp.rows, fp.cols, correction)
+            state.means = means.with_ambient(level, fp.rows, fp.cols, correction)
             return
         state.electrons += level[:, None] if isinstance(level, np.ndarray) and level.ndim == 1 else level
         if correction.size:

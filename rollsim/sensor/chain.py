@@ -245,7 +245,8 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
             # Row by row, as rollsim.sensor.means writes a frame: the base
             # level, the LED's box, the face's correction, each element with
             # the same operations.
-            _, box, coverage, row_signal, level_kind, level, level_map, face, correction = parts
+            (_, box, coverage, row_signal, level_kind, level, level_map, face, correction, gain, offset_kind,
+             offset_level, offset_map) = parts
             first_row, n_rows, first_col, n_cols = box
             j = 0
             while j < n:
@@ -289,6 +290,18 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                     for k in range(hi - lo):
                         lit[k] += extra[k]
                 j += m
+            # Then the gain (PRNU) and the offset (dark current), as their stages apply them to the frame.
+            if gain.size > 0:
+                block_gain = gain[first:first + n]
+                for k in range(n):
+                    mean_of[k] = mean_of[k] * np.float64(block_gain[k])
+            if offset_kind == 1:
+                for k in range(n):
+                    mean_of[k] = mean_of[k] + offset_level
+            elif offset_kind == 2:
+                block_offset = offset_map[first:first + n]
+                for k in range(n):
+                    mean_of[k] = mean_of[k] + np.float64(block_offset[k])
         # ------------------------------------------------------ shot noise
         if shot_key is None:
             for j in range(n):

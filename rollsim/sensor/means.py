@@ -50,6 +50,10 @@ class SeparableMeans:
     correction : ndarray of float64 or None
         Electrons added on the face's box (the face's reflected light minus
         the background it hides), or None.
+    gain : ndarray of float32, shape ``shape``, or None
+        Each pixel's photo-response gain (PRNU), multiplying the sum above.
+    offset : float, ndarray of float32 of shape ``shape``, or None
+        Electrons added last (dark current): one level or a map.
     """
 
     shape: tuple[int, int]
@@ -61,17 +65,37 @@ class SeparableMeans:
     face_rows: Optional[slice] = None
     face_cols: Optional[slice] = None
     correction: Optional[np.ndarray] = None
+    gain: Optional[np.ndarray] = None
+    offset: Optional[float | np.ndarray] = None
 
     def with_ambient(self, background: float | np.ndarray, face_rows: slice, face_cols: slice,
                      correction: np.ndarray) -> SeparableMeans:
         """These means plus a background (a level, a level per row or a map) and a correction on the face's box."""
-        if self.background is not None:
-            raise ValueError("the means already hold an ambient background")
+        if self.background is not None or self.gain is not None or self.offset is not None:
+            raise ValueError("the means already hold an ambient background, or a gain or offset applied after it")
         if np.ndim(background) == 0:
             background = float(background)
         elif np.shape(background) not in (self.shape, self.shape[:1]):
             raise ValueError(f"a background of shape {np.shape(background)} on a frame of {self.shape}")
         return replace(self, background=background, face_rows=face_rows, face_cols=face_cols, correction=correction)
+
+    def with_gain(self, gain: np.ndarray) -> SeparableMeans:
+        """These means times a float32 gain map of the frame's shape (PRNU)."""
+        if self.gain is not None or self.offset is not None:
+            raise ValueError("the means already hold a gain, or an offset applied after it")
+        if not (isinstance(gain, np.ndarray) and gain.dtype == np.float32 and gain.shape == self.shape):
+            raise ValueError(f"a gain map must be float32 of shape {self.shape}")
+        return replace(self, gain=gain)
+
+    def with_offset(self, offset: float | np.ndarray) -> SeparableMeans:
+        """These means plus an offset in electrons: a level, or a float32 map of the frame's shape (dark current)."""
+        if self.offset is not None:
+            raise ValueError("the means already hold an offset")
+        if np.ndim(offset) == 0:
+            offset = float(offset)
+        elif not (isinstance(offset, np.ndarray) and offset.dtype == np.float32 and offset.shape == self.shape):
+            raise ValueError(f"an offset map must be float32 of shape {self.shape}")
+        return replace(self, offset=offset)
 
 
 def materialize(means: SeparableMeans) -> np.ndarray:
@@ -88,18 +112,25 @@ def materialize(means: SeparableMeans) -> np.ndarray:
         out += means.background
     if means.correction is not None:
         out[means.face_rows, means.face_cols] += means.correction
+    if means.gain is not None:
+        out *= means.gain
+    if means.offset is not None:
+        out += means.offset
     return out
 
 
 def kernel_parts(means: SeparableMeans) -> tuple:
     """The parts as a compiled kernel reads them, with no None (numba types a tuple by its members).
 
-    ``(shape, box, coverage, row_signal, level_kind, level, level_map, face, correction)``:
+    ``(shape, box, coverage, row_signal, level_kind, level, level_map, face, correction, gain, offset_kind,
+    offset_level, offset_map)``:
     ``box`` and ``face`` are (first row, rows, first column, columns);
     ``level_kind`` is 0 (no background), 1 (the level ``level``), 2 (the
     map ``level_map``) or 3 (a level per row, ``level_map`` of shape
     (H, 1)); an absent map or correction is a 1 × 1 zero array (a face of
-    no rows).
+    no rows). ``gain`` and ``offset_map`` are flat float32 maps, or empty
+    where absent; ``offset_kind`` is 0
+    (none), 1 (the level ``offset_level``) or 2 (the map).
     """
     unused = np.zeros((1, 1))
     level_kind, level, level_map = 0, 0.0, unused
@@ -113,9 +144,17 @@ def kernel_parts(means: SeparableMeans) -> tuple:
     if means.correction is not None and means.face_rows is not None and means.face_cols is not None:
         face = _box(means.face_rows, means.face_cols, means.correction)
         correction = np.ascontiguousarray(means.correction, dtype=np.float64)
+    absent = np.zeros(0, dtype=np.float32)
+    gain = absent if means.gain is None else np.ascontiguousarray(means.gain).ravel()
+    offset_kind, offset_level, offset_map = 0, 0.0, absent
+    if isinstance(means.offset, np.ndarray):
+        offset_kind, offset_map = 2, np.ascontiguousarray(means.offset).ravel()
+    elif means.offset is not None:
+        offset_kind, offset_level = 1, float(means.offset)
     return (tuple(int(n) for n in means.shape), _box(means.rows, means.cols, means.coverage),
             np.ascontiguousarray(means.coverage, dtype=np.float64),
-            np.ascontiguousarray(means.row_signal, dtype=np.float64), level_kind, level, level_map, face, correction)
+            np.ascontiguousarray(means.row_signal, dtype=np.float64), level_kind, level, level_map, face, correction,
+            gain, offset_kind, offset_level, offset_map)
 
 
 def _box(rows: slice, cols: slice, values: np.ndarray) -> tuple[int, int, int, int]:

@@ -26,10 +26,14 @@ def stagewise(means: SeparableMeans) -> np.ndarray:
         out += background[:, None] if background.ndim == 1 else background
     if means.correction is not None:
         out[means.face_rows, means.face_cols] += means.correction
+    if means.gain is not None:
+        out *= means.gain
+    if means.offset is not None:
+        out += means.offset
     return out
 
 
-def random_means(rng, shape, light, face, background="level"):
+def random_means(rng, shape, light, face, background="level", after=None):
     (r0, r1), (c0, c1) = light
     means = SeparableMeans(shape, slice(r0, r1), slice(c0, c1), rng.random((r1 - r0, c1 - c0)) * 3.0,
                            rng.random(r1 - r0) * 40.0)
@@ -38,6 +42,12 @@ def random_means(rng, shape, light, face, background="level"):
         level = {"level": lambda: rng.random() * 7.0, "rows": lambda: rng.random(shape[0]) * 7.0,
                  "map": lambda: rng.random(shape) * 7.0}[background]()
         means = means.with_ambient(level, slice(f0, f1), slice(g0, g1), rng.random((f1 - f0, g1 - g0)) * 2.0)
+    if after in ("gain", "gain and offset map"):  # PRNU
+        means = means.with_gain((1.0 + 0.05 * rng.standard_normal(shape)).astype(np.float32))
+    if after == "offset level":  # a uniform dark current
+        means = means.with_offset(0.37)
+    if after == "gain and offset map":  # a dark-current map
+        means = means.with_offset((rng.random(shape) * 3.0).astype(np.float32))
     return means
 
 
@@ -56,8 +66,9 @@ CHAINS = [dict(shot="poisson", full_well_e=60.0, read_sigma_e=2.0, adc=Adc(3.0, 
 
 @pytest.mark.parametrize(("shape", "light", "face"), CASES)
 @pytest.mark.parametrize("background", ["level", "rows", "map", None])
-def test_the_frame_written_from_the_parts_is_the_stages(shape, light, face, background):
-    means = random_means(np.random.default_rng(len(light) + shape[0]), shape, light, face, background)
+@pytest.mark.parametrize("after", [None, "gain", "offset level", "gain and offset map"])
+def test_the_frame_written_from_the_parts_is_the_stages(shape, light, face, background, after):
+    means = random_means(np.random.default_rng(len(light) + shape[0]), shape, light, face, background, after)
     frame = materialize(means)
     assert frame.dtype == np.float64 and frame.shape == shape
     assert frame.tobytes() == stagewise(means).tobytes()
@@ -66,8 +77,9 @@ def test_the_frame_written_from_the_parts_is_the_stages(shape, light, face, back
 @pytest.mark.parametrize(("shape", "light", "face"), CASES)
 @pytest.mark.parametrize("background", ["level", "rows", "map", None])
 @pytest.mark.parametrize("steps", CHAINS, ids=["poisson-gray8", "gaussian-raw", "electrons"])
-def test_the_chain_given_the_parts_renders_the_bytes_of_the_frame(shape, light, face, background, steps):
-    means = random_means(np.random.default_rng(len(light) + shape[1]), shape, light, face, background)
+@pytest.mark.parametrize("after", [None, "gain", "offset level", "gain and offset map"])
+def test_the_chain_given_the_parts_renders_the_bytes_of_the_frame(shape, light, face, background, steps, after):
+    means = random_means(np.random.default_rng(len(light) + shape[1]), shape, light, face, background, after)
     steps = dict(steps)
     shot = steps.pop("shot")
     from_frame = run_chain(materialize(means), shot, KEYS, **steps)
@@ -119,20 +131,39 @@ def test_reading_the_electrons_writes_the_frame_once_and_setting_them_drops_the_
     assert state.means is None and state.electrons.shape == (3,)
 
 
-@pytest.mark.parametrize(("name", "overrides"), [("effect-flicker", []), ("effect-vignetting", ["effects.flicker={}"]),
-                                                 ("paper-geometric", [])])
-def test_ambient_as_parts_is_the_frame_it_would_have_added_to(name, overrides):
-    """Flicker's level per row (and with vignetting, a map) joins the parts; read as a frame, it is the bytes
-    of the ambient stage adding to a frame already written."""
+@pytest.mark.parametrize(("name", "overrides", "stage_name"), [
+    ("effect-flicker", [], "ambient"), ("effect-vignetting", ["effects.flicker={}"], "ambient"),
+    ("paper-geometric", [], "ambient"), ("effect-row_noise", [], "prnu"), ("effect-row_noise", [], "dark_current"),
+    ("effect-row_noise", ["effects.dark_current={}"], "dark_current")])
+def test_a_stage_on_the_parts_is_the_frame_it_would_have_written(name, overrides, stage_name):
+    """Flicker's level per row (with vignetting, a map), PRNU's gain map and the dark current (a map, or a level)
+    join the parts; read as a frame, they are the bytes of the stage working on a frame already written."""
     pipeline = RenderPipeline(load_scene(name, SMALL + overrides))
     stages = pipeline.stages
-    ambient = next(i for i, stage in enumerate(stages) if stage.name == "ambient")
+    at = next(i for i, stage in enumerate(stages) if stage.name == stage_name)
     as_parts, as_frame = FrameState(pipeline.setup, 4), FrameState(pipeline.setup, 4)
     for state in (as_parts, as_frame):
-        for stage in stages[:ambient]:
+        for stage in stages[:at]:
             stage(state)
-    assert as_frame.electrons.dtype == np.float64  # written before the ambient stage: it adds to the frame
-    stages[ambient](as_parts)
-    stages[ambient](as_frame)
+    assert as_parts.means is not None
+    assert as_frame.electrons.dtype == np.float64  # written before the stage: it works on the frame
+    stages[at](as_parts)
+    stages[at](as_frame)
     assert as_parts.means is not None and as_frame.means is None
     assert as_parts.electrons.tobytes() == as_frame.electrons.tobytes()
+
+
+def test_a_gain_or_offset_joins_the_parts_once_and_in_order():
+    means = random_means(np.random.default_rng(2), (20, 30), ((2, 9), (3, 12)), ((2, 9), (3, 12)))
+    gain = np.ones((20, 30), dtype=np.float32)
+    with pytest.raises(ValueError, match="float32 of shape"):
+        means.with_gain(gain.astype(np.float64))
+    with pytest.raises(ValueError, match="float32 of shape"):
+        means.with_offset(np.ones((30, 20), dtype=np.float32))
+    offset = means.with_offset(1.5)
+    with pytest.raises(ValueError, match="already hold an offset"):
+        offset.with_offset(1.0)
+    with pytest.raises(ValueError, match="offset applied after"):
+        offset.with_gain(gain)  # the gain comes before the offset, as PRNU before dark current
+    with pytest.raises(ValueError, match="already hold a gain"):
+        means.with_gain(gain).with_gain(gain)
