@@ -45,9 +45,11 @@ EFFECT = Effect(
     prepare=prepare,
     reads=("setup.footprint", "setup.led_light"),
     writes=("setup.led_light", "setup.led_rows"),
-    # The halo's one FFT convolution per scene: its full output spans up to
-    # 3H x 3W pixels, held as a few complex64 spectra (~36 B per frame pixel
-    # each) and the float32 kernel; measured 253 B/px at 1080p with the LED's
+    # The halo's one FFT convolution per scene: its transform spans the
+    # frame plus the light's box (up to 2H x 2W pixels; before the output
+    # window, the light's box plus twice the kernel's reach, up to 3H x 3W),
+    # held as two complex64 spectra and one float32 plane; the estimate was
+    # measured at 253 B/px at 1080p for the larger transform, with the LED's
     # image covering 0.6 of the frame (tests/render/test_render_memory.py
     # keeps it a bound).
     setup_bytes_per_pixel=192,

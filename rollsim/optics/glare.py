@@ -156,12 +156,17 @@ def moffat_kernel(core_px: float, exponent: float, radius_rows: int, radius_cols
     return np.take(np.take(quadrant, rows, axis=0), cols, axis=1)
 
 
-def _wrapped_kernel(quadrant: np.ndarray, shape: tuple[int, int], out: np.ndarray | None = None) -> np.ndarray:
-    """The whole kernel laid out for a circular convolution of ``shape``: offset (dy, dx) at (dy mod H, dx mod W).
+def _wrapped_kernel(quadrant: np.ndarray, shape: tuple[int, int], out: np.ndarray | None = None,
+                    reach: tuple[int, int] | None = None) -> np.ndarray:
+    """The kernel laid out for a circular convolution of ``shape``: offset (dy, dx) at (dy mod H, dx mod W).
 
-    Written into ``out`` (float32, ``shape``) where given, else a new array.
+    Offsets up to ``reach`` (rows, columns; at most the quadrant's radii, the
+    default) in size on either side: the layout stays even, so its transform
+    is real. Written into ``out`` (float32, ``shape``) where given, else a
+    new array.
     """
-    ry, rx = quadrant.shape[0] - 1, quadrant.shape[1] - 1
+    ry, rx = (quadrant.shape[0] - 1, quadrant.shape[1] - 1) if reach is None else reach
+    quadrant = quadrant[: ry + 1, : rx + 1]
     if out is None:
         out = np.zeros(shape, dtype=np.float32)
     else:
@@ -171,6 +176,21 @@ def _wrapped_kernel(quadrant: np.ndarray, shape: tuple[int, int], out: np.ndarra
     out[shape[0] - ry:, : rx + 1] = quadrant[ry:0:-1, :]
     out[shape[0] - ry:, shape[1] - rx:] = quadrant[ry:0:-1, rx:0:-1]
     return out
+
+
+def _transform_reach(window: tuple[int, int], extent: int, radius: int) -> tuple[int, int]:
+    """The kernel's reach and the transform's least size along one axis, for output offsets ``window``.
+
+    The outputs at offsets lo … hi from the light's first pixel take the
+    kernel at offsets lo − (extent − 1) … hi: the layout holds them (evenly,
+    up to the kernel's radius), and the transform holds both them and the
+    outputs without wrapping one onto another.
+    """
+    lo, hi = window
+    if hi < lo:
+        raise ValueError(f"an empty window of offsets {window}")
+    reach = min(radius, max(extent - 1 - lo, hi, 0))
+    return reach, max(2 * reach + 1, hi - lo + 1)
 
 
 @functools.lru_cache(maxsize=1)
@@ -216,14 +236,18 @@ def _zero_padded(x: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return out
 
 
-def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1) -> np.ndarray:
+def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1,
+                     window: tuple[tuple[int, int], tuple[int, int]] | None = None) -> np.ndarray:
     """The light convolved with the whole kernel of ``quadrant``, circularly.
 
-    The transform size (H, W) is the fast one at or above the light's
-    extent plus twice the kernel's radius, so no offset the kernel holds
-    wraps onto another: entry (i mod H, j mod W) is the linear
-    convolution's value at offset (i, j) from the light's first pixel
-    (negative offsets included, down to minus the kernel's radius).
+    Entry (i mod H, j mod W) is the linear convolution's value at offset
+    (i, j) from the light's first pixel, for the offsets of ``window``
+    (rows, columns; each the first and last offset). By default that is
+    every offset the kernel reaches (negative ones down to minus its
+    radius), and the transform size (H, W) is the fast one at or above the
+    light's extent plus twice the kernel's radius. A window, such as the
+    frame's pixels, needs a smaller transform: the kernel's offsets that
+    the window's outputs take, laid out evenly, and the window's outputs.
 
     The kernel is even in both axes and laid out around the origin, so its
     transform is real: the light's spectrum is scaled by that real part,
@@ -245,14 +269,19 @@ def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1) 
     ndarray of float32, shape (H, W)
     """
     ry, rx = quadrant.shape[0] - 1, quadrant.shape[1] - 1
-    wanted = (light.shape[0] + 2 * ry, light.shape[1] + 2 * rx)
+    if window is None:
+        window = ((-ry, ry + light.shape[0] - 1), (-rx, rx + light.shape[1] - 1))
+    (reach_y, wanted_y), (reach_x, wanted_x) = (_transform_reach(w, extent, radius) for w, extent, radius in
+                                                zip(window, light.shape, (ry, rx)))
+    wanted, reach = (wanted_y, wanted_x), (reach_y, reach_x)
     pocketfft = _pocketfft()
     if pocketfft is None:  # another SciPy layout: the public functions, the same numbers
         from scipy import fft
 
         shape = (fft.next_fast_len(wanted[0], True), fft.next_fast_len(wanted[1], True))
         spectrum = fft.rfft2(_zero_padded(light, shape), workers=workers)
-        kernel_real = np.ascontiguousarray(fft.rfft2(_wrapped_kernel(quadrant, shape), workers=workers).real)
+        kernel_real = np.ascontiguousarray(fft.rfft2(_wrapped_kernel(quadrant, shape, reach=reach),
+                                                     workers=workers).real)
         # The real and imaginary parts side by side, each times the kernel's (real) transform.
         spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_real[..., None]
         return fft.irfft2(spectrum, shape, workers=workers)
@@ -262,7 +291,8 @@ def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1) 
     shape = (pocketfft.good_size(wanted[0], True), pocketfft.good_size(wanted[1], True))  # scipy's next_fast_len
     plane = _zero_padded(light, shape)
     spectrum = pocketfft.r2c(plane, (0, 1), True, 0, None, workers)
-    kernel_spectrum = pocketfft.r2c(_wrapped_kernel(quadrant, shape, out=plane), (0, 1), True, 0, None, workers)
+    kernel_spectrum = pocketfft.r2c(_wrapped_kernel(quadrant, shape, out=plane, reach=reach), (0, 1), True, 0, None,
+                                    workers)
     spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_spectrum.real[..., None]
     del kernel_spectrum
     return pocketfft.c2r(spectrum, (0, 1), shape[1], False, 2, plane, workers)
@@ -299,8 +329,11 @@ def glared_light(light: Footprint, frame_shape: tuple[int, int], fraction: float
         rx = max(light.cols.stop, width - light.cols.start)
         # Two threads at most: the one convolution of the scene's setup, on
         # a machine whose cores may all be rendering (the bits do not change).
+        # Only the frame's pixels are read: offsets from minus the light's first
+        # row (column) to the frame's last.
+        window = ((-light.rows.start, height - 1 - light.rows.start), (-light.cols.start, width - 1 - light.cols.start))
         halo = halo_convolution(light.coverage.astype(np.float32), moffat_quadrant(core_px, exponent, ry, rx),
-                                workers=min(2, os.cpu_count() or 1))
+                                workers=min(2, os.cpu_count() or 1), window=window)
         _scaled_window(halo, light.rows.start, light.cols.start, fraction, out)
     # (1 − η)·L + η·halo: the sum in either order is the same number.
     out[light.rows, light.cols] += (1.0 - fraction) * light.coverage

@@ -128,13 +128,39 @@ def test_the_circular_halo_is_the_linear_convolution(light_shape, core, beta, ry
     assert np.abs(halo[rest]).max(initial=0.0) <= 4e-7 * full.max()
 
 
+# (light shape, core, beta, radius rows, radius columns, window of output offsets): the frame around an LED in its
+# centre, near a corner, at an edge, and a window on one side of the light only.
+WINDOW_CASES = [((31, 40), 6.0, 2.0, 120, 150, ((-45, 74), (-55, 94))),
+                ((12, 9), 4.0, 2.5, 100, 110, ((-2, 97), (-100, 8))),
+                ((20, 20), 3.0, 2.0, 60, 60, ((0, 59), (-40, 19))),
+                ((5, 6), 2.0, 3.0, 30, 40, ((3, 20), (-30, -2)))]
+
+
+@pytest.mark.parametrize(("light_shape", "core", "beta", "ry", "rx", "window"), WINDOW_CASES)
+def test_a_window_of_outputs_takes_a_smaller_transform_and_the_same_values(light_shape, core, beta, ry, rx, window):
+    """Only the window's offsets are read (the frame's pixels): they are the linear convolution's, from a transform
+    that holds the kernel's offsets they take rather than all it reaches."""
+    light = np.random.default_rng(sum(light_shape)).random(light_shape, dtype=np.float32)
+    quadrant = glare.moffat_quadrant(core, beta, ry, rx)
+    halo = glare.halo_convolution(light, quadrant, window=window)
+    full = linear_convolution(light, moffat_kernel(core, beta, ry, rx))  # full[k] at offset k − radius
+    (lo_y, hi_y), (lo_x, hi_x) = window
+    offsets_y, offsets_x = np.arange(lo_y, hi_y + 1), np.arange(lo_x, hi_x + 1)
+    got = halo[np.ix_(offsets_y % halo.shape[0], offsets_x % halo.shape[1])]
+    expected = full[np.ix_(offsets_y + ry, offsets_x + rx)]
+    np.testing.assert_allclose(got, expected, rtol=0, atol=4e-7 * full.max())
+    default = glare.halo_convolution(light, quadrant)
+    assert halo.size < default.size
+
+
 def test_the_wrapped_kernel_is_even_so_its_transform_is_real():
     quadrant = glare.moffat_quadrant(6.0, 2.0, 30, 41)
     shape = (80, 100)
-    kernel = glare._wrapped_kernel(quadrant, shape)
-    assert np.array_equal(kernel, np.roll(kernel[::-1, ::-1], (1, 1), axis=(0, 1)))  # k[-d] = k[d], circularly
-    spectrum = np.fft.rfft2(kernel.astype(np.float64))
-    assert np.abs(spectrum.imag).max() <= 1e-12 * np.abs(spectrum.real).max()
+    for reach in (None, (12, 41), (30, 3)):
+        kernel = glare._wrapped_kernel(quadrant, shape, reach=reach)
+        assert np.array_equal(kernel, np.roll(kernel[::-1, ::-1], (1, 1), axis=(0, 1)))  # k[-d] = k[d], circularly
+        spectrum = np.fft.rfft2(kernel.astype(np.float64))
+        assert np.abs(spectrum.imag).max() <= 1e-12 * np.abs(spectrum.real).max()
 
 
 @pytest.mark.parametrize("workers", [1, 2])
