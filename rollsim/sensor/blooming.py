@@ -13,13 +13,15 @@ The downward pass is the queue recursion out_i = max(0, out_{i−1} + x_i),
 x_i = (own excess going down) − (room), whose closed form
 out_i = S_i − min(0, min_{j≤i} S_j) with S the cumulative sum of x makes it
 a few vectorised passes over the columns; pixel i absorbs
-out_{i−1} + x_i + room_i − out_i. Where numba runs, one compiled loop does
-both passes with the same operations in the same order (the running sum is
-numpy's, which adds row after row), so the bytes are the numpy twin's. The upward pass is the same recursion on
+out_{i−1} + x_i + room_i − out_i. The upward pass is the same recursion on
 the reversed column, over the room the downward pass left. Where the two
 flows compete for the room of the same pixels, the downward flow fills first
 (a convention: the model has no time order inside the exposure). Only
 columns with an over-full pixel are touched.
+
+Where numba runs, one compiled loop does both passes on a float32 frame
+with the same operations in the same order (numpy's running sum adds row
+after row), so the bytes are the numpy twin's.
 """
 
 from __future__ import annotations

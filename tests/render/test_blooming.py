@@ -70,7 +70,7 @@ def test_total_charge_is_conserved_when_nothing_leaves():
     assert wide.sum() + lost == pytest.approx(total, rel=1e-13)
 
 
-@pytest.mark.parametrize("layout", ["region", "everywhere", "two far apart"])
+@pytest.mark.parametrize("layout", ["region", "everywhere", "two far apart", "columns between"])
 @pytest.mark.parametrize("spill_fraction", [1.0, 0.3])
 def test_compiled_pass_equals_the_numpy_twin_byte_for_byte(layout, spill_fraction):
     """The kernel takes the span of columns between the first and last over-full ones; the twin only those."""
@@ -84,6 +84,9 @@ def test_compiled_pass_equals_the_numpy_twin_byte_for_byte(layout, spill_fractio
     elif layout == "two far apart":
         frame = np.minimum(frame, np.float32(0.9 * C))
         frame[5, 390], frame[290, 2] = 40 * C, 3 * C
+    elif layout == "columns between":  # the compiled pass takes columns 100 … 110, the twin three of them
+        frame = np.minimum(frame, np.float32(0.9 * C))
+        frame[50, 100], frame[200, 110], frame[10, 104] = 5 * C, 3 * C, 2 * C
     compiled, twin = frame.copy(), frame.copy()
     lost = bloom(compiled, C, spill_fraction)
     with numpy_only():
