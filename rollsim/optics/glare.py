@@ -183,14 +183,15 @@ def _transform_reach(window: tuple[int, int], extent: int, radius: int) -> tuple
 
     The outputs at offsets lo … hi from the light's first pixel take the
     kernel at offsets lo − (extent − 1) … hi: the layout holds them (evenly,
-    up to the kernel's radius), and the transform holds both them and the
-    outputs without wrapping one onto another.
+    up to the kernel's radius, beyond which the kernel is 0), and the
+    transform holds them and the outputs without wrapping one onto
+    another, nor an offset beyond the radius onto the layout's entries.
     """
     lo, hi = window
     if hi < lo:
         raise ValueError(f"an empty window of offsets {window}")
     reach = min(radius, max(extent - 1 - lo, hi, 0))
-    return reach, max(2 * reach + 1, hi - lo + 1)
+    return reach, max(2 * reach + 1, hi - lo + 1, hi + reach + 1, reach + extent - lo)
 
 
 @functools.lru_cache(maxsize=1)
