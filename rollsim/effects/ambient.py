@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from rollsim.effects.base import Effect, NoParams, StageRun, on_box
 
 if TYPE_CHECKING:
@@ -34,17 +32,16 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
         fp = state.led_footprint
         correction = static_correction if state.footprint is None else correction_of(fp)
         factor = state.ambient_row_factor  # flicker
-        if factor is None:
-            level = background
-        else:  # a level per row, or a map
-            level = background * (factor if np.ndim(background) == 0 else factor[:, None])
+        level = background
+        if factor is not None:  # a level per row (an (H, 1) column), or a map
+            level = background * factor[:, None]
             correction = correction * factor[fp.rows, None]
         means = state.means
         if means is not None and means.background is None and means.gain is None and means.offset is None:
             # Joins the LED's light as a part: no frame written (rollsim.sensor.means).
             state.means = means.with_ambient(level, fp.rows, fp.cols, correction)
             return
-        state.electrons += level[:, None] if isinstance(level, np.ndarray) and level.ndim == 1 else level
+        state.electrons += level
         if correction.size:
             state.electrons[fp.rows, fp.cols] += correction
 

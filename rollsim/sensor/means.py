@@ -41,10 +41,10 @@ class SeparableMeans:
         The LED's light on its box (relative; per-pixel rates folded in).
     row_signal : ndarray of float64, shape (rows,)
         Electrons per unit of coverage in each row of the box.
-    background : float, ndarray of float64 of shape ``shape`` or ``(H,)``, or None
+    background : float, ndarray of float64 of shape ``shape`` or ``(H, 1)``, or None
         Electrons of the ambient light on each pixel: one level, a level
-        per row (flicker), or a map (vignetting, a colour filter); None
-        without ambient light.
+        per row (flicker; a column, so that it broadcasts along the rows),
+        or a map (vignetting, a colour filter); None without ambient light.
     face_rows, face_cols : slice or None
         The box of ``correction``.
     correction : ndarray of float64 or None
@@ -75,7 +75,7 @@ class SeparableMeans:
             raise ValueError("the means already hold an ambient background, or a gain or offset applied after it")
         if np.ndim(background) == 0:
             background = float(background)
-        elif np.shape(background) not in (self.shape, self.shape[:1]):
+        elif np.shape(background) not in (self.shape, (self.shape[0], 1)):
             raise ValueError(f"a background of shape {np.shape(background)} on a frame of {self.shape}")
         return replace(self, background=background, face_rows=face_rows, face_cols=face_cols, correction=correction)
 
@@ -106,9 +106,7 @@ def materialize(means: SeparableMeans) -> np.ndarray:
     """
     out = np.zeros(means.shape)
     np.multiply(means.coverage, means.row_signal[:, None], out=out[means.rows, means.cols])
-    if isinstance(means.background, np.ndarray) and means.background.ndim == 1:
-        out += means.background[:, None]
-    elif means.background is not None:
+    if means.background is not None:
         out += means.background
     if means.correction is not None:
         out[means.face_rows, means.face_cols] += means.correction
@@ -129,15 +127,14 @@ def kernel_parts(means: SeparableMeans) -> tuple:
     map ``level_map``) or 3 (a level per row, ``level_map`` of shape
     (H, 1)); an absent map or correction is a 1 × 1 zero array (a face of
     no rows). ``gain`` and ``offset_map`` are flat float32 maps, or empty
-    where absent; ``offset_kind`` is 0
-    (none), 1 (the level ``offset_level``) or 2 (the map).
+    where absent; ``offset_kind`` is 0 (none), 1 (the level
+    ``offset_level``) or 2 (the map).
     """
     unused = np.zeros((1, 1))
     level_kind, level, level_map = 0, 0.0, unused
-    if isinstance(means.background, np.ndarray) and means.background.ndim == 1:
-        level_kind, level_map = 3, np.ascontiguousarray(means.background, dtype=np.float64).reshape(-1, 1)
-    elif isinstance(means.background, np.ndarray):
-        level_kind, level_map = 2, np.ascontiguousarray(means.background, dtype=np.float64)
+    if isinstance(means.background, np.ndarray):
+        level_kind = 3 if means.background.shape[1] == 1 else 2
+        level_map = np.ascontiguousarray(means.background, dtype=np.float64)
     elif means.background is not None:
         level_kind, level = 1, float(means.background)
     face, correction = (0, 0, 0, 0), unused

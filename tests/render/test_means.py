@@ -22,8 +22,7 @@ def stagewise(means: SeparableMeans) -> np.ndarray:
     out = np.zeros(means.shape)
     out[means.rows, means.cols] = means.coverage * means.row_signal[:, None]
     if means.background is not None:
-        background = np.asarray(means.background)
-        out += background[:, None] if background.ndim == 1 else background
+        out += means.background
     if means.correction is not None:
         out[means.face_rows, means.face_cols] += means.correction
     if means.gain is not None:
@@ -39,7 +38,7 @@ def random_means(rng, shape, light, face, background="level", after=None):
                            rng.random(r1 - r0) * 40.0)
     if background:
         (f0, f1), (g0, g1) = face
-        level = {"level": lambda: rng.random() * 7.0, "rows": lambda: rng.random(shape[0]) * 7.0,
+        level = {"level": lambda: rng.random() * 7.0, "rows": lambda: rng.random((shape[0], 1)) * 7.0,
                  "map": lambda: rng.random(shape) * 7.0}[background]()
         means = means.with_ambient(level, slice(f0, f1), slice(g0, g1), rng.random((f1 - f0, g1 - g0)) * 2.0)
     if after in ("gain", "gain and offset map"):  # PRNU
