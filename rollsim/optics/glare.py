@@ -237,6 +237,12 @@ def _zero_padded(x: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return out
 
 
+def _scale_by_real(spectrum: np.ndarray, kernel_real: np.ndarray) -> None:
+    """``spectrum`` (complex64) times the kernel's real transform, in place: its real and imaginary parts side by
+    side, each times ``kernel_real`` (one rounded product per component, the same bits on every CPU)."""
+    spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_real[..., None]
+
+
 def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1,
                      window: tuple[tuple[int, int], tuple[int, int]] | None = None) -> np.ndarray:
     """The light convolved with the whole kernel of ``quadrant``, circularly.
@@ -281,10 +287,7 @@ def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1,
 
         shape = (fft.next_fast_len(wanted[0], True), fft.next_fast_len(wanted[1], True))
         spectrum = fft.rfft2(_zero_padded(light, shape), workers=workers)
-        kernel_real = np.ascontiguousarray(fft.rfft2(_wrapped_kernel(quadrant, shape, reach=reach),
-                                                     workers=workers).real)
-        # The real and imaginary parts side by side, each times the kernel's (real) transform.
-        spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_real[..., None]
+        _scale_by_real(spectrum, fft.rfft2(_wrapped_kernel(quadrant, shape, reach=reach), workers=workers).real)
         return fft.irfft2(spectrum, shape, workers=workers)
     # The same transforms, with one real buffer of the transforms' size for
     # the light, then the kernel, then the result: a set-up pays more for
@@ -294,7 +297,7 @@ def halo_convolution(light: np.ndarray, quadrant: np.ndarray, workers: int = 1,
     spectrum = pocketfft.r2c(plane, (0, 1), True, 0, None, workers)
     kernel_spectrum = pocketfft.r2c(_wrapped_kernel(quadrant, shape, out=plane, reach=reach), (0, 1), True, 0, None,
                                     workers)
-    spectrum.view(np.float32).reshape(*spectrum.shape, 2)[...] *= kernel_spectrum.real[..., None]
+    _scale_by_real(spectrum, kernel_spectrum.real)
     del kernel_spectrum
     return pocketfft.c2r(spectrum, (0, 1), shape[1], False, 2, plane, workers)
 
