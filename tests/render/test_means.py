@@ -17,18 +17,27 @@ from rollsim.sensor.poisson import PoissonTables
 SMALL = ["camera.width_px=320", "camera.height_px=240"]
 
 
+def _on_frame(values: np.ndarray, rows: slice, cols: slice, shape) -> np.ndarray:
+    """``values`` at their box of a frame of zeros."""
+    frame = np.zeros(shape)
+    frame[rows, cols] = values
+    return frame
+
+
 def stagewise(means: SeparableMeans) -> np.ndarray:
-    """The frame as the LED's signal and the ambient stages wrote it, one pass each."""
-    out = np.zeros(means.shape)
-    out[means.rows, means.cols] = means.coverage * means.row_signal[:, None]
+    """The frame written another way than materialize: every part laid on a whole frame first (zeros outside
+    its box), then one operation per stage over the whole frame, in the stages' order."""
+    coverage = _on_frame(means.coverage, means.rows, means.cols, means.shape)
+    signal = _on_frame(means.row_signal[:, None], means.rows, slice(0, 1), (means.shape[0], 1))
+    out = coverage * signal  # 0 outside the box, as the LED's signal stage leaves it
     if means.background is not None:
-        out += means.background
+        out = out + np.broadcast_to(means.background, means.shape)
     if means.correction is not None:
-        out[means.face_rows, means.face_cols] += means.correction
+        out = out + _on_frame(means.correction, means.face_rows, means.face_cols, means.shape)
     if means.gain is not None:
-        out *= means.gain
+        out = out * means.gain
     if means.offset is not None:
-        out += means.offset
+        out = out + np.broadcast_to(means.offset, means.shape)
     return out
 
 
