@@ -37,7 +37,7 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
             level = background * factor[:, None]
             correction = correction * factor[fp.rows, None]
         means = state.means
-        if means is not None and means.background is None and means.gain is None and means.offset is None:
+        if means is not None and means.accepts("background"):
             # Joins the LED's light as a part: no frame written (rollsim.sensor.means).
             state.means = means.with_ambient(level, fp.rows, fp.cols, correction)
             return

@@ -79,7 +79,7 @@ def build_stage(setup: SceneSetup, params: DarkCurrent) -> StageRun:
     dark = dark_rate_map(setup, params) * setup.timing.exposure_s
 
     def run(state: FrameState) -> None:
-        if state.means is not None and state.means.offset is None:
+        if state.means is not None and state.means.accepts("offset"):
             state.means = state.means.with_offset(dark)  # the compiled chain adds it block by block
         else:
             state.electrons += dark

@@ -24,7 +24,7 @@ def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:
     gain_map = np.float32(1.0) + np.float32(0.01 * setup.scene.camera.prnu_percent) * fixed_pattern_map(setup, "prnu")
 
     def run(state: FrameState) -> None:
-        if state.means is not None and state.means.gain is None and state.means.offset is None:
+        if state.means is not None and state.means.accepts("gain"):
             state.means = state.means.with_gain(gain_map)  # the compiled chain applies it block by block
         else:
             state.electrons *= gain_map

@@ -27,6 +27,10 @@ from typing import Optional
 import numpy as np
 
 
+# The parts that join after the LED's light, in the order their stages apply them.
+LATE_PARTS = ("background", "gain", "offset")
+
+
 @dataclass(frozen=True)
 class SeparableMeans:
     """Mean electrons (e⁻) of a frame of shape ``shape``, as parts.
@@ -68,10 +72,17 @@ class SeparableMeans:
     gain: Optional[np.ndarray] = None
     offset: Optional[float | np.ndarray] = None
 
+    def accepts(self, part: str) -> bool:
+        """Whether ``part`` ("background", "gain" or "offset") may join: it is not held, nor one applied after it.
+
+        The parts apply in :data:`LATE_PARTS`' order, as their stages do.
+        """
+        return all(getattr(self, later) is None for later in LATE_PARTS[LATE_PARTS.index(part):])
+
     def with_ambient(self, background: float | np.ndarray, face_rows: slice, face_cols: slice,
                      correction: np.ndarray) -> SeparableMeans:
         """These means plus a background (a level, a level per row or a map) and a correction on the face's box."""
-        if self.background is not None or self.gain is not None or self.offset is not None:
+        if not self.accepts("background"):
             raise ValueError("the means already hold an ambient background, or a gain or offset applied after it")
         if np.ndim(background) == 0:
             background = float(background)
@@ -81,7 +92,7 @@ class SeparableMeans:
 
     def with_gain(self, gain: np.ndarray) -> SeparableMeans:
         """These means times a float32 gain map of the frame's shape (PRNU)."""
-        if self.gain is not None or self.offset is not None:
+        if not self.accepts("gain"):
             raise ValueError("the means already hold a gain, or an offset applied after it")
         if not (isinstance(gain, np.ndarray) and gain.dtype == np.float32 and gain.shape == self.shape):
             raise ValueError(f"a gain map must be float32 of shape {self.shape}")
@@ -89,7 +100,7 @@ class SeparableMeans:
 
     def with_offset(self, offset: float | np.ndarray) -> SeparableMeans:
         """These means plus an offset in electrons: a level, or a float32 map of the frame's shape (dark current)."""
-        if self.offset is not None:
+        if not self.accepts("offset"):
             raise ValueError("the means already hold an offset")
         if np.ndim(offset) == 0:
             offset = float(offset)
