@@ -20,6 +20,7 @@ import numpy as np
 
 from rollsim.protocol import PhyFormat
 
+from decoder.order_stats import median
 from decoder.records import STATUSES
 from decoder.timing import ChipStream
 
@@ -114,7 +115,7 @@ def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float,
     exact = np.all(chips.exact[index], axis=1)
     first_row = chips.start[starts]
     # A candidate running past the stream ends where its chips would.
-    pitch = float(np.median(chips.end - chips.start))
+    pitch = median(chips.end - chips.start)
     last_row = np.where(inside, chips.end[index[:, -1]], first_row + n_chips * pitch)
     complete = inside & exact
     if row_span is not None:

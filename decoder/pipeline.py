@@ -24,6 +24,7 @@ from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, co
 from decoder.equalise import MAX_EXPOSURE_CHIPS, detect_chips
 from decoder.framing import OK, TRUNCATED, decode_chip_stream, merge_readings
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
+from decoder.order_stats import median, percentiles
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
 from decoder.profile import RowProfile, row_profile, stripe_weighted_profile
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
@@ -229,8 +230,8 @@ def smoothing_rows(profile: RowProfile, rows_per_chip: float) -> float:
     contrast (the usual case: each row averages hundreds of pixels) is not
     smoothed at all.
     """
-    low, high = np.percentile(profile.values, [5.0, 95.0])
-    if np.median(profile.noise) < SMOOTH_NOISE_FRACTION * (high - low):
+    low, high = percentiles(profile.values, (5.0, 95.0))
+    if median(profile.noise) < SMOOTH_NOISE_FRACTION * (high - low):
         return 0.0
     return rows_per_chip / 6.0
 

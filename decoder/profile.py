@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from decoder.block_sums import column_means_u8, frame_words
+from decoder.order_stats import median, percentiles
 from decoder.region import COMMON_BAND_BLOCKS, BlockImage, Region, band_means, common_stripes_z, horizontal_noise
 
 # Quantisation noise of the column-block means of an integer frame (DN):
@@ -56,6 +58,10 @@ def region_columns(image: BlockImage, region: Region) -> np.ndarray:
     ndarray of float32, shape (n_rows, n_block_cols, n_channels)
         The row mean over the region is then a weighted sum over blocks.
     """
+    words = frame_words(image.frame, image.factor)
+    if words is not None:
+        # The same numbers as the resize below, several times faster.
+        return column_means_u8(words, region.rows, region.block_cols)[:, :, None]
     cols = image.block_col_span(region.block_cols)
     crop = image.frame[region.rows, cols]
     n_blocks = region.block_cols.stop - region.block_cols.start
@@ -77,7 +83,9 @@ def channel_profiles(image: BlockImage, region: Region) -> tuple[np.ndarray, np.
     """
     cols = region_columns(image, region)
     weights = region.weights
-    counts = np.maximum(weights.sum(axis=1, dtype=np.float64), 1.0)
+    # Weights are 0 or 1: their float32 sums are exact counts (and a matrix
+    # product takes them ten times faster than a float64 sum does).
+    counts = np.maximum(weights @ np.ones(weights.shape[1], np.float32), 1.0).astype(np.float64)
     # One small matrix product per row (far faster than einsum here).
     sums = np.matmul(weights[:, None, :], cols)[:, 0, :]
     values = sums.astype(np.float64) / counts[:, None]
@@ -90,8 +98,8 @@ def channel_profiles(image: BlockImage, region: Region) -> tuple[np.ndarray, np.
 
 def stripe_contrast(values: np.ndarray, noise: np.ndarray) -> float:
     """Contrast-to-noise ratio of a profile: 5–95 % spread over median noise."""
-    low, high = np.percentile(values, [5.0, 95.0])
-    return float((high - low) / max(float(np.median(noise)), 1e-12))
+    low, high = percentiles(values, (5.0, 95.0))
+    return float((high - low) / max(median(noise), 1e-12))
 
 
 def row_profile(image: BlockImage, region: Region) -> RowProfile:

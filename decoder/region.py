@@ -40,6 +40,9 @@ import cv2
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from decoder.order_stats import median
+from decoder.block_sums import block_means_u8, frame_words
+
 # Otsu's two classes must lie this many noise standard deviations apart
 # (of block means) before the bright one counts as an LED. Pure Gaussian
 # noise splits into classes about 1.6 sigma apart.
@@ -143,6 +146,10 @@ def block_means(frame: np.ndarray, factor: int) -> BlockImage:
     factor : int
         Block size in pixels.
     """
+    words = frame_words(frame, factor)
+    if words is not None:
+        # The same numbers as the resize below, several times faster.
+        return BlockImage(frame, block_means_u8(words), factor)
     height, width = frame.shape[:2]
     size = (max(1, width // factor), max(1, height // factor))
     # INTER_AREA with an integer ratio is an exact block mean (rounded to an
@@ -378,8 +385,9 @@ def modulated_mask(gray: np.ndarray, chip_blocks: float, kernel_rows: int, floor
     # The step to the next block row: stripes change level there, a smooth
     # background barely does, and a footprint's edge spills into one block
     # only (a deviation from a local mean would spill half its window).
-    ac = np.zeros_like(smooth)
-    ac[:-1] = smooth[1:] - smooth[:-1]
+    ac = np.empty_like(smooth)
+    np.subtract(smooth[1:], smooth[:-1], out=ac[:-1])
+    ac[-1] = 0.0
     box = (2 * width + 1, window)
     # A lower bound: the quantisation of one smoothed block (a step, the
     # difference of two, has twice it where the rounding errors are independent).
@@ -388,16 +396,17 @@ def modulated_mask(gray: np.ndarray, chip_blocks: float, kernel_rows: int, floor
     # Across a footprint narrower than two lags both differences straddle
     # its sides and measure stripes, not noise: cap the local estimate at
     # a multiple of the frame's typical noise power.
-    typical = float(np.median(noise_power[:: max(1, rows // 64), :: max(1, cols // 64)]))
-    noise_power = np.clip(noise_power, floor_power, max(floor_power, MAX_NOISE_POWER_RATIO * typical))
-    squared = ac * ac
+    typical = median(noise_power[:: max(1, rows // 64), :: max(1, cols // 64)])
+    np.clip(noise_power, floor_power, max(floor_power, MAX_NOISE_POWER_RATIO * typical), out=noise_power)
+    threshold = np.multiply(noise_power, min_power, out=noise_power)
+    squared = np.square(ac, out=ac)
     # Significant over a few chips and columns, and present locally (over a
     # Manchester symbol, in the block's own smoothed column): the long window
     # alone would spread a footprint's top and bottom by half its height,
     # and its sides into a neighbouring LED's.
-    significant = cv2.blur(squared, box, borderType=cv2.BORDER_REFLECT) > min_power * noise_power
-    local = cv2.blur(squared, (1, mean_rows), borderType=cv2.BORDER_REFLECT) > min_power * noise_power
-    modulated: np.ndarray = (significant & local).astype(np.uint8)
+    significant = cv2.blur(squared, box, borderType=cv2.BORDER_REFLECT) > threshold
+    local = cv2.blur(squared, (1, mean_rows), borderType=cv2.BORDER_REFLECT) > threshold
+    modulated: np.ndarray = np.logical_and(significant, local, out=significant).view(np.uint8)
     # The step spills one block above a footprint's top: take it back.
     modulated = cv2.erode(modulated, np.ones((3, 1), np.uint8))
     if width > 1:
@@ -562,12 +571,17 @@ def _noise_power(values: np.ndarray, lag: int) -> np.ndarray:
     if lag < 1:
         power[:] = 0.0
         return power
-    half = 0.5 * np.square(values[:, lag:] - values[:, :-lag])
+    # In place: one temporary instead of four (the same numbers).
+    half = values[:, lag:] - values[:, :-lag]
+    np.square(half, out=half)
+    half *= 0.5
     # Within ``lag`` of the frame's sides a value has one neighbour only.
     power[:, :lag] = half[:, :lag]
     power[:, -lag:] = half[:, -lag:]
     if values.shape[1] > 2 * lag:
-        power[:, lag:-lag] = np.minimum(half[:, :-lag], half[:, lag:]) / MIN_OF_TWO_DIFFERENCES
+        inner = power[:, lag:-lag]
+        np.minimum(half[:, :-lag], half[:, lag:], out=inner)
+        np.divide(inner, inner.dtype.type(MIN_OF_TWO_DIFFERENCES), out=inner)
     return power
 
 

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from decoder.order_stats import percentile
+
 # Chips reaching farther than this past a cut (rows) are not exact. Edges at
 # a footprint's ends are known to about half a row (partial rows, short
 # exposures), so a PHY-SDU may miss up to this much of a chip and pass.
@@ -167,7 +169,7 @@ def edge_bias_chips(runs: Runs, rows_per_chip: float, min_runs: int = 8, window_
     overall = float((np.angle(phasor.sum()) / (2 * np.pi)) % 1.0)
     # The alias under which the short runs (a low percentile, robust to
     # noise glitches) of both levels still round to at least one chip.
-    short_on, short_off = np.percentile(chips[on], 10.0), np.percentile(chips[off], 10.0)
+    short_on, short_off = percentile(chips[on], 10.0), percentile(chips[off], 10.0)
     aliases = [c for c in (overall, overall - 1.0) if np.rint(short_on - c) >= 1 and np.rint(short_off + c) >= 1]
     if not aliases:
         return beta

@@ -1,0 +1,75 @@
+"""The compiled block means give OpenCV's INTER_AREA numbers bit for bit."""
+
+import cv2
+import numpy as np
+import pytest
+
+from decoder import block_sums
+from decoder.block_sums import block_means_u8, column_means_u8, frame_words
+from decoder.profile import region_columns
+from decoder.region import BlockImage, Region, block_means
+
+pytestmark = pytest.mark.skipif(block_sums._kernels() is None, reason="numba is not installed or ROLLSIM_JIT=0")
+
+
+def _frame(height, width, seed=0):
+    rng = np.random.default_rng(seed)
+    frame = rng.integers(0, 256, (height, width), dtype=np.uint8)
+    # Saturated and black patches. Random pixels give many exact ties of the
+    # rounding (a block sum ≡ 8 mod 16, a column sum ≡ 2 mod 4); this block's
+    # mean is 0.5, which rounds to the even 0.
+    frame[: height // 4, : width // 4] = 255
+    frame[-8:, -8:] = 0
+    frame[4:8, 0:4] = 0
+    frame[4, 3] = 8
+    return frame
+
+
+@pytest.mark.parametrize("shape", [(1080, 1920), (64, 64), (480, 644), (36, 100)])
+def test_block_means_are_opencvs(shape):
+    frame = _frame(*shape)
+    expected = cv2.resize(frame, (shape[1] // 4, shape[0] // 4), interpolation=cv2.INTER_AREA).astype(np.float32)
+    words = frame_words(frame, 4)
+    assert words is not None
+    assert np.array_equal(block_means_u8(words), expected)
+    assert np.array_equal(block_means(frame, 4).blocks, expected)
+
+
+@pytest.mark.parametrize(("rows", "block_cols"), [(slice(0, 1080), slice(0, 480)), (slice(3, 17), slice(7, 9)),
+                                                   (slice(1079, 1080), slice(479, 480)), (slice(500, 900), slice(100, 300))])
+def test_column_means_are_opencvs(rows, block_cols):
+    frame = _frame(1080, 1920, seed=1)
+    crop = frame[rows, 4 * block_cols.start : 4 * block_cols.stop]
+    n_blocks = block_cols.stop - block_cols.start
+    expected = cv2.resize(crop, (n_blocks, crop.shape[0]), interpolation=cv2.INTER_AREA).astype(np.float32)
+    assert np.array_equal(column_means_u8(frame_words(frame, 4), rows, block_cols), expected)
+
+
+def test_region_columns_take_the_same_numbers_either_way(monkeypatch):
+    frame = _frame(1080, 1920, seed=2)
+    region = Region(slice(100, 700), slice(20, 300), np.ones((600, 280), np.float32), 150 * 280)
+    fast = region_columns(block_means(frame, 4), region)
+    monkeypatch.setenv("ROLLSIM_JIT", "0")
+    assert frame_words(frame, 4) is None
+    slow_image = block_means(frame, 4)
+    assert np.array_equal(region_columns(slow_image, region), fast)
+    assert np.array_equal(slow_image.blocks, block_means(frame, 4).blocks)
+
+
+@pytest.mark.parametrize("frame", [
+    np.zeros((1080, 1918), np.uint8),          # width not a multiple of 4
+    np.zeros((1082, 1920), np.uint8),          # height not a multiple of 4
+    np.zeros((1080, 1920), np.uint16),         # 16 bits
+    np.zeros((1080, 1920, 3), np.uint8),       # colour
+    np.zeros((1080, 3840), np.uint8)[:, ::2],  # not contiguous
+])
+def test_other_frames_take_opencvs_path(frame):
+    assert frame_words(frame, 4) is None
+    assert frame_words(np.zeros((64, 64), np.uint8), 2) is None
+
+
+def test_the_fast_path_changes_no_block_image_field():
+    frame = _frame(64, 64, seed=5)
+    image = block_means(frame, 4)
+    assert isinstance(image, BlockImage) and image.frame is frame and image.factor == 4
+    assert image.blocks.dtype == np.float32 and image.blocks.shape == (16, 16)
