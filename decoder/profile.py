@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from decoder.block_sums import column_means_u8, frame_words
+from decoder.kernels import column_means_u8, frame_words
 from decoder.order_stats import median, percentiles
 from decoder.region import COMMON_BAND_BLOCKS, BlockImage, Region, band_means, common_stripes_z, horizontal_noise
 

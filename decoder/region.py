@@ -41,7 +41,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from decoder.order_stats import median
-from decoder.block_sums import block_means_u8, frame_words
+from decoder.kernels import block_means_u8, frame_words, noise_power_f32
 
 # Otsu's two classes must lie this many noise standard deviations apart
 # (of block means) before the bright one counts as an LED. Pure Gaussian
@@ -567,6 +567,9 @@ def _noise_power(values: np.ndarray, lag: int) -> np.ndarray:
     meet background, the side away from it still measures noise.
     """
     lag = min(max(1, int(lag)), values.shape[1] - 1)
+    compiled = noise_power_f32(values, lag, MIN_OF_TWO_DIFFERENCES)
+    if compiled is not None:
+        return compiled
     power = np.empty_like(values)
     if lag < 1:
         power[:] = 0.0

@@ -4,12 +4,12 @@ import cv2
 import numpy as np
 import pytest
 
-from decoder import block_sums
-from decoder.block_sums import block_means_u8, column_means_u8, frame_words
+from decoder import kernels
+from decoder.kernels import block_means_u8, column_means_u8, frame_words
 from decoder.profile import region_columns
 from decoder.region import BlockImage, Region, block_means
 
-pytestmark = pytest.mark.skipif(block_sums._kernels() is None, reason="numba is not installed or ROLLSIM_JIT=0")
+pytestmark = pytest.mark.skipif(kernels._kernels() is None, reason="numba is not installed or ROLLSIM_JIT=0")
 
 
 def _frame(height, width, seed=0):
@@ -73,3 +73,18 @@ def test_the_fast_path_changes_no_block_image_field():
     image = block_means(frame, 4)
     assert isinstance(image, BlockImage) and image.frame is frame and image.factor == 4
     assert image.blocks.dtype == np.float32 and image.blocks.shape == (16, 16)
+
+
+@pytest.mark.parametrize(("shape", "lag"), [((270, 480), 9), ((40, 19), 9), ((5, 3), 1), ((270, 480), 1)])
+def test_noise_power_is_numpys(monkeypatch, shape, lag):
+    from decoder.region import _noise_power
+
+    rng = np.random.default_rng(6)
+    values = (rng.normal(0.0, 3.0, shape) + np.arange(shape[0])[:, None] % 7).astype(np.float32)
+    values[: shape[0] // 2, : shape[1] // 3] = 0.0  # flat patches: exact zeros
+    compiled = _noise_power(values, lag)
+    monkeypatch.setenv("ROLLSIM_JIT", "0")
+    twin = _noise_power(values, lag)
+    assert compiled.dtype == twin.dtype == np.float32
+    assert np.array_equal(compiled, twin)
+

@@ -1,23 +1,27 @@
-"""Block means of 8-bit gray frames, compiled where numba is available.
+"""The decoder's compiled kernels, where numba is available; OpenCV or numpy otherwise.
 
-The decoder's two largest passes over a frame are block means: 4 × 4-pixel
-blocks for region detection (:func:`decoder.region.block_means`) and
-4-pixel column blocks of a region's rows for its profile
-(:func:`decoder.profile.region_columns`). OpenCV's ``INTER_AREA`` resize
-does both in about 0.7 ms per 1080p frame each, one pixel at a time. On an
-8-bit gray frame whose width is a multiple of 4, a compiled loop reads four
-pixels as one 32-bit word and adds their bytes two at a time inside it
-(each 16-bit lane of ``(x & 0x00FF00FF) + ((x >> 8) & 0x00FF00FF)`` holds
-the sum of two bytes, at most 510, so four rows add up without carrying
-into the next lane): about 0.1 ms for the blocks and 0.2 ms for a region
-spanning the frame.
-
+**Block means.** The decoder's two largest passes over a frame are block
+means: 4 × 4-pixel blocks for region detection
+(:func:`decoder.region.block_means`) and 4-pixel column blocks of a
+region's rows for its profile (:func:`decoder.profile.region_columns`).
+OpenCV's ``INTER_AREA`` resize does both in about 0.7 ms per 1080p frame
+each, one pixel at a time. On an 8-bit gray frame whose sides are multiples
+of 4, a compiled loop reads four pixels as one 32-bit word and adds their
+bytes two at a time inside it (each 16-bit lane of
+``(x & 0x00FF00FF) + ((x >> 8) & 0x00FF00FF)`` holds the sum of two bytes,
+at most 510, so four rows add up without carrying into the next lane):
+about 0.1 ms for the blocks and 0.2 ms for a region spanning the frame.
 The results are OpenCV's to the bit: ``INTER_AREA`` at an integer ratio
-rounds an 8-bit mean half to even (``np.rint``), which the kernels do too
-(tested against ``cv2.resize`` on random frames and every layout the
-fast path takes). Where numba is missing, or disabled with the project's
-switch ``ROLLSIM_JIT=0``, or the frame is not an 8-bit gray one laid out
-for it, the callers resize with OpenCV: the same numbers, slower.
+rounds an 8-bit mean half to even (``np.rint``), which the kernels do too.
+
+**Noise power.** ``decoder.region._noise_power`` takes the smaller of two
+squared differences per block, five numpy passes over the block image; the
+kernel makes one, with the same float32 operations in the same order.
+
+Every kernel's result equals its fallback's bit for bit (tested). The
+fallbacks run where numba is missing, where the project's switch
+``ROLLSIM_JIT=0`` disables it, and for frames the fast path does not take
+(colour, 16-bit, float, odd-sized or strided).
 
 numba is imported the first time a kernel is asked for, so importing the
 decoder costs nothing more. Each kernel depends on this file alone, which
@@ -69,6 +73,30 @@ def _column_means_words(words, first_row, stop_row, first_word, n_words):  # pra
     return out
 
 
+def _noise_power_rows(values, lag, bias, power):  # pragma: no cover - compiled
+    """``decoder.region._noise_power``'s loop, into ``power`` (float32, like ``values``; more than 2·lag columns)."""
+    rows, cols = values.shape
+    half = np.float32(0.5)
+    for r in range(rows):
+        line = values[r]
+        out = power[r]
+        # Within a lag of either side, the one difference there is.
+        for c in range(lag):
+            d = line[c + lag] - line[c]
+            out[c] = d * d * half
+        for c in range(cols - lag, cols):
+            d = line[c] - line[c - lag]
+            out[c] = d * d * half
+        # A select rather than min() (whose NaN rules it need not keep: the
+        # squares are finite), so that the loop vectorises.
+        for c in range(lag, cols - lag):
+            d_left = line[c] - line[c - lag]
+            d_right = line[c + lag] - line[c]
+            left = d_left * d_left * half
+            right = d_right * d_right * half
+            out[c] = (left if left < right else right) / bias
+
+
 _compiled: dict[str, Callable[..., Any]] | None = None
 _checked = False
 
@@ -85,7 +113,8 @@ def _kernels() -> dict[str, Callable[..., Any]] | None:
         except ImportError:  # OpenCV takes over
             return None
         compile_ = numba.njit(cache=True, nogil=True)
-        _compiled = {"blocks": compile_(_block_means_words), "columns": compile_(_column_means_words)}
+        _compiled = {"blocks": compile_(_block_means_words), "columns": compile_(_column_means_words),
+                     "noise_power": compile_(_noise_power_rows)}
     return _compiled
 
 
@@ -137,3 +166,13 @@ def column_means_u8(words: np.ndarray, rows: slice, block_cols: slice) -> np.nda
     kernels = _kernels()
     assert kernels is not None, "frame_words returned words, so the kernels exist"
     return kernels["columns"](words, rows.start, rows.stop, block_cols.start, block_cols.stop - block_cols.start)
+
+
+def noise_power_f32(values: np.ndarray, lag: int, bias: float) -> np.ndarray | None:
+    """``decoder.region._noise_power`` of a float32 image with sides wider than two lags; None without the kernels."""
+    kernels = _kernels()
+    if kernels is None or values.dtype != np.float32 or values.ndim != 2 or values.shape[1] <= 2 * lag:
+        return None
+    power = np.empty_like(values)
+    kernels["noise_power"](values, lag, np.float32(bias), power)
+    return power
