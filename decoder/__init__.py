@@ -10,7 +10,11 @@ Stages, one module each: :mod:`decoder.io` (reading frames),
 :mod:`decoder.pipeline` (the whole chain); :mod:`decoder.equalise` detects
 chip sequences through an exposure longer than a chip (or where
 thresholding left PHY-SDUs unread); :mod:`decoder.rowtime` calibrates the
-row time from square-wave frames.
+row time from square-wave frames. :mod:`decoder.kernels` compiles the block
+means and the modulation map's noise power where numba is available (the
+same numbers as its OpenCV and numpy fallbacks), and
+:mod:`decoder.order_stats` takes medians and percentiles as numpy does,
+without its per-call overhead.
 """
 
 from decoder.io import MAX_FRAME_PIXELS, FrameError, FrameReadError, as_frame_array, png_header, read_frame
