@@ -40,8 +40,8 @@ import cv2
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from decoder.order_stats import median
 from decoder.kernels import block_means_u8, frame_words, noise_power_f32
+from decoder.order_stats import median
 
 # Otsu's two classes must lie this many noise standard deviations apart
 # (of block means) before the bright one counts as an LED. Pure Gaussian
@@ -398,6 +398,7 @@ def modulated_mask(gray: np.ndarray, chip_blocks: float, kernel_rows: int, floor
     # a multiple of the frame's typical noise power.
     typical = median(noise_power[:: max(1, rows // 64), :: max(1, cols // 64)])
     np.clip(noise_power, floor_power, max(floor_power, MAX_NOISE_POWER_RATIO * typical), out=noise_power)
+    # The threshold on the stripe power, in the noise power's place.
     threshold = np.multiply(noise_power, min_power, out=noise_power)
     squared = np.square(ac, out=ac)
     # Significant over a few chips and columns, and present locally (over a
