@@ -251,7 +251,7 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     those where the LED is faint or absent (a disk's sides, a region that
     spans the frame): they add noise and no stripes. Here each band of
     columns (:data:`~decoder.region.COMMON_BAND_BLOCKS` blocks) is weighted,
-    row by row, by its estimated stripe amplitude over its noise variance
+    row by row, by its correlation with the other bands' stripes
     (:func:`stripe_band_weights`). The level of a row then depends on
     which bands carry it, slowly along the profile; a detector that fits
     its levels along the profile (:mod:`decoder.equalise`) reads it,
@@ -281,7 +281,9 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     n_bands = crop.shape[1] // band_px
     if n_bands < 3:
         return None
-    bands = band_means(crop.astype(np.float32, copy=False), band_px)
+    # Floats: an 8-bit frame's differences would wrap around.
+    crop = crop.astype(np.float32, copy=False)
+    bands = band_means(crop, band_px)
     sigma = max(horizontal_noise(crop), INTEGER_NOISE_FLOOR if image.integer else 1e-6)
     # Quantisation of a band's row mean (a uniform error of 1/12 DN² per pixel).
     floor = 1.0 / (12.0 * band_px) if image.integer else 1e-12 * max(1.0, float(np.max(np.abs(bands)))) ** 2

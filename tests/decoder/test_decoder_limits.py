@@ -93,6 +93,8 @@ def test_stripe_weighted_profile_leaves_out_columns_without_stripes():
     # Only a third of the columns carry stripes: leaving the rest out gains
     # about sqrt(3) in amplitude SNR.
     assert stripe_snr(weighted.values) > 1.4 * stripe_snr(plain.values)
+    # Its stated noise is that of a mean over those 640 columns (8 DN / √640).
+    assert np.median(weighted.noise) == pytest.approx(8.0 / np.sqrt(640), rel=0.1)
 
 
 @pytest.mark.parametrize("rows_per_chip", [4.5, 10.0])
