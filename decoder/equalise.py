@@ -361,10 +361,15 @@ def code_statistics(phy: PhyFormat, exposure_rows: float, rows_per_chip: float, 
     sync = np.concatenate([np.ones(phy.sync_chips - 1), [0.0]])
     chips = np.hstack([np.tile(sync, (n_sdus, 1)), coded]).ravel()
     n_rows = int(chips.size * rows_per_chip)
-    grid = chip_grid(n_rows, exposure_rows, rows_per_chip, 0.0)
     memory = memory_chips(exposure_rows, rows_per_chip)
-    last_chip, weights = row_weights(n_rows, exposure_rows, grid, memory)
-    smear = smeared(np.resize(chips, grid.n_chips), last_chip, weights)
+    # Every phase of the grid: at a pitch near a whole number of rows, each
+    # row sees the chips at nearly the same phase, and which one is unknown.
+    smears = []
+    for k in range(PHASES):
+        grid = chip_grid(n_rows, exposure_rows, rows_per_chip, rows_per_chip * k / PHASES)
+        last_chip, weights = row_weights(n_rows, exposure_rows, grid, memory)
+        smears.append(smeared(np.resize(chips, grid.n_chips), last_chip, weights))
+    smear = np.concatenate(smears)
     return float(smear.mean()), float(smear.std())
 
 

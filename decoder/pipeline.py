@@ -28,7 +28,7 @@ from decoder.order_stats import median, percentiles
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
 from decoder.profile import RowProfile, row_profile, stripe_weighted_profile
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
-from decoder.region import block_means, choose_factor, detect_regions
+from decoder.region import block_means, choose_factor, detect_regions, full_height
 from decoder.timing import (
     MIN_ROWS_PER_CHIP,
     Runs,
@@ -189,6 +189,11 @@ def led_edges(runs: Runs, levels: Binarized, pitch: float):
 # one chip on paper-default). Shorter exposures are thresholded first and
 # detected again where that left a candidate failed or found none.
 LONG_EXPOSURE_CHIPS = 0.9
+# Fewer rows than chips cannot determine the chips (a little under one row
+# per chip is a row time slightly off).
+MIN_DETECTED_ROWS_PER_CHIP = 0.95
+# Chips shorter than this many blocks hardly show in the block image.
+UNRESOLVED_CHIP_BLOCKS = 0.75
 
 
 # A chip decided ON with at least this confidence (its least-squares value,
@@ -329,15 +334,23 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     if len(profile) < MIN_PROFILE_ROWS:
         return [], None, None
     pitch = rows_per_chip if rows_per_chip is not None else profile_rows_per_chip(profile, phy, min_contrast)
-    if pitch is None or not pitch >= MIN_ROWS_PER_CHIP:
+    if pitch is None:
         return [], None, None
-    levels, runs = binarise_at_pitch(profile, phy, pitch, min_contrast)
     if exposure_rows is not None and exposure_rows > MAX_EXPOSURE_CHIPS * pitch:
         # Longer than the detector's memory allows: thresholding alone
         # (which reads nothing there, but fails no frame).
         exposure_rows = None
-    long_exposure = exposure_rows is not None and exposure_rows > LONG_EXPOSURE_CHIPS * pitch
-    found, span = (None, None) if long_exposure else _thresholded_candidates(runs, levels, pitch, phy)
+    # Finer than thresholding's least pitch, chips of a row or so are still
+    # read by sequence detection over the known exposure: each row mixes at
+    # most two or three chips, with weights the pitch and exposure give.
+    fine = exposure_rows is not None and MIN_DETECTED_ROWS_PER_CHIP <= pitch < MIN_ROWS_PER_CHIP
+    if not (pitch >= MIN_ROWS_PER_CHIP or fine):
+        return [], None, None
+    levels, runs = (None, None) if fine else binarise_at_pitch(profile, phy, pitch, min_contrast)
+    long_exposure = exposure_rows is not None and (fine or exposure_rows > LONG_EXPOSURE_CHIPS * pitch)
+    found, span = None, None
+    if not long_exposure and runs is not None and levels is not None:
+        found, span = _thresholded_candidates(runs, levels, pitch, phy)
     if exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), phy.sdu_chips * pitch)):
         # A second look, by sequence detection over the known smear: it
         # reads what thresholding cannot (weak stripes, a long exposure);
@@ -426,8 +439,10 @@ def decode_frame(
         Exposure time in seconds (a PNG from rollsim says it:
         ``exposure_us``). With ``clock_hz`` and ``row_time_s``, an exposure
         longer than :data:`LONG_EXPOSURE_CHIPS` chips is decoded by
-        sequence detection over the known smear (:mod:`decoder.equalise`);
-        without it, by thresholding, which reads up to about 1.4 chips.
+        sequence detection over the known smear (:mod:`decoder.equalise`),
+        and so are chips finer than thresholding's 1.2 rows (down to
+        :data:`MIN_DETECTED_ROWS_PER_CHIP`); without it, thresholding reads
+        exposures up to about 1.4 chips and nothing finer than 1.2 rows.
 
     Returns
     -------
@@ -474,6 +489,13 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
         pitch = frame_rows_per_chip([row_profile(blocks, region) for region in regions], phy)
         if pitch is not None:
             regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch)
+    if regions and pitch is not None and pitch < UNRESOLVED_CHIP_BLOCKS * blocks.factor:
+        # A block of `factor` rows averages most of a chip this fine away,
+        # so the modulation map finds the LED's bright core but not its
+        # faint rows above and below (a glare halo): the largest region
+        # takes every row of the frame, and the readers' erasures keep to
+        # the rows whose stripes show.
+        regions = [full_height(regions[0], blocks.height), *regions[1:]]
     for region in regions:
         profile = row_profile(blocks, region)
         weighted = None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch, profile.channel)

@@ -654,3 +654,14 @@ def _region_from_mask(image: BlockImage, mask: np.ndarray, x: int, y: int, area:
     stop = height if bottom >= n_block_rows else -(-bottom * height // n_block_rows)
     block_row = np.clip(image.block_row_of(np.arange(first, stop)) - y, 0, mask.shape[0] - 1)
     return Region(slice(first, stop), slice(x, x + mask.shape[1]), mask.astype(np.float32)[block_row], area)
+
+
+def full_height(region: Region, height: int) -> Region:
+    """The region over every row of the frame (``height`` rows), in its columns.
+
+    Rows outside it take every column any of its rows holds.
+    """
+    columns = (region.weights.max(axis=0) > 0).astype(np.float32)
+    weights = np.repeat(columns[None, :], height, axis=0)
+    weights[region.rows] = region.weights
+    return Region(slice(0, height), region.block_cols, weights, region.area_blocks)

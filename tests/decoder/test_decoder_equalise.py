@@ -110,7 +110,8 @@ def test_other_formats_at_three_chips(phy):
     assert {(t["sequence"], t["bits"]) for t in inner} <= {(s.sequence, s.bits) for s in found if s.check_ok}
 
 
-@pytest.mark.parametrize("exposure_chips, rows_per_chip", [(1.2, 4.5), (3.0, 4.5), (4.0, 2.0), (2.0, 10.0), (6.0, 4.5)])
+@pytest.mark.parametrize("exposure_chips, rows_per_chip", [(1.2, 4.5), (3.0, 4.5), (4.0, 2.0), (2.0, 10.0), (6.0, 4.5),
+                                                           (0.8, 1.0)])
 def test_noise_alone_is_erased(exposure_chips, rows_per_chip):
     # The detector always finds *some* best sequence; in pure noise every
     # row must be an erasure, so no chip and no candidate comes out.
@@ -213,3 +214,38 @@ def test_one_chip_of_exposure_is_read():
     summary = scene_outcomes(load_scene("paper-default", ["camera.exposure_us=125", "camera.iso=8000"]), 8)
     assert summary["counts"]["ok"] >= 0.9 * summary["fully_visible"]
     assert summary["false_decodes"] == 0 and summary["counts"]["undetected_error"] == 0
+
+
+@pytest.mark.parametrize("rows_per_chip", [1.0, 1.1])
+def test_chips_finer_than_thresholding_reads_are_detected(rows_per_chip):
+    # One chip per row or so (thresholding needs 1.2 rows): told the
+    # exposure (0.8 chip), the decoder reads the chips by sequence
+    # detection; not told, it reads nothing rather than guess.
+    profile, truth, exposure_rows = smeared_profile(0.8, rows_per_chip, noise_fraction=0.01, n_rows=1080)
+    found = decode_profile(profile, PHY, rows_per_chip, exposure_rows=exposure_rows)
+    inner = [t for t in truth if t["first_row_f"] > 2 and t["last_row_f"] < len(profile) - 2]
+    assert len(inner) >= 10
+    assert {(t["sequence"], t["bits"]) for t in inner} <= {(s.sequence, s.bits) for s in found if s.check_ok}
+    assert all(s.check_ok for s in found)
+    assert decode_profile(profile, PHY, rows_per_chip) == []
+
+
+def test_fewer_rows_than_chips_are_not_read():
+    # 0.8 rows per chip: a row time covers 1.25 chips, so the rows cannot
+    # determine the chips; the decoder reads nothing rather than guess.
+    profile, _, exposure_rows = smeared_profile(0.8, 0.8, noise_fraction=0.01, n_rows=1080)
+    assert decode_profile(profile, PHY, 0.8, exposure_rows=exposure_rows) == []
+
+
+@pytest.mark.parametrize("rows_per_chip", [1.0, 2.0, 3.0])
+def test_code_statistics_do_not_depend_on_the_grid_phase(rows_per_chip):
+    # A near-instant exposure samples one chip per row, so s is 0 or 1 and
+    # its deviation is that of a coin with the chips' ON fraction p, at any
+    # pitch. At a whole number of rows per chip every row sees the chips at
+    # the same phase: one phase alone (the chip edge) gave 0.35 at 1 row.
+    from decoder.equalise import PHASES, code_statistics
+
+    mean, std = code_statistics(PHY, 0.01, rows_per_chip)
+    # One phase in PHASES puts the edge under every row (s = 1/2 there).
+    assert std == pytest.approx(np.sqrt(mean * (1.0 - mean)), rel=1.0 / PHASES)
+    assert std > 0.95 * np.sqrt(mean * (1.0 - mean))
