@@ -57,6 +57,13 @@ class SduCandidates:
     def check_ok(self) -> np.ndarray:
         return self.status == OK
 
+    def select(self, keep: np.ndarray) -> "SduCandidates":
+        """The candidates where ``keep`` (bool or indices), in that order."""
+        return SduCandidates(*(getattr(self, name)[keep] for name in _FIELDS))
+
+
+_FIELDS = ("first_row", "last_row", "sequence", "payload", "status", "confidence")
+
 
 def find_sync_starts(chip_values: np.ndarray, phy: PhyFormat) -> np.ndarray:
     """Chip index of the first SYNC chip of every SYNC in a chip stream.
@@ -151,8 +158,6 @@ def merge_readings(primary: SduCandidates, secondary: SduCandidates, sdu_rows: f
     near = distance < 0.5 * sdu_rows
     taken = secondary.check_ok & ~np.any(near & primary.check_ok[None, :], axis=1)
     kept = primary.check_ok | ~np.any(near & taken[:, None], axis=0)
-    parts = [(primary, kept), (secondary, taken)]
-    fields = ("first_row", "last_row", "sequence", "payload", "status", "confidence")
-    merged = {name: np.concatenate([getattr(c, name)[m] for c, m in parts]) for name in fields}
-    order = np.argsort(merged["first_row"], kind="stable")
-    return SduCandidates(**{name: value[order] for name, value in merged.items()})
+    parts = [primary.select(kept), secondary.select(taken)]
+    merged = SduCandidates(*(np.concatenate([getattr(c, name) for c in parts]) for name in _FIELDS))
+    return merged.select(np.argsort(merged.first_row, kind="stable"))

@@ -21,8 +21,8 @@ from rollsim.protocol.linecode import chips_per_symbol
 from rollsim.protocol.frames import frame_index_from_name
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
-from decoder.equalise import MAX_EXPOSURE_CHIPS, detect_chips
-from decoder.framing import OK, TRUNCATED, decode_chip_stream, merge_readings
+from decoder.equalise import MAX_EXPOSURE_CHIPS, MIN_MODULATION_SIGMA, WEAK_MODULATION_SIGMA, detect_chips
+from decoder.framing import OK, TRUNCATED, SduCandidates, decode_chip_stream, merge_readings
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.order_stats import median, percentiles
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
@@ -202,23 +202,44 @@ CONFIDENT_ON_CHIP = 0.45
 
 
 def equalised_chips(profile: RowProfile, phy: PhyFormat, rows_per_chip: float, exposure_rows: float):
-    """Chips of a profile seen through a long exposure, and the rows a whole PHY-SDU must lie in.
+    """Chips of a profile seen through a long exposure, the rows a whole PHY-SDU must lie in, and the sure rows.
 
     The span runs from the first to the last chip decided ON with
     confidence (as thresholding's runs from the first to the last confident
     ON run, :func:`led_edges`): past the LED's last rows an OFF chip looks
     like the background, so the chips there are not the LED's to claim.
+    Rows whose stripes stand out of the noise by
+    :data:`~decoder.equalise.WEAK_MODULATION_SIGMA` are read; those that
+    stand out by :data:`~decoder.equalise.MIN_MODULATION_SIGMA` are sure.
 
     Returns
     -------
-    (ChipStream, (first, last) or None)
-        The span (profile rows) is None when no chip is surely ON.
+    (ChipStream, (first, last) or None, ndarray of bool)
+        The span (profile rows) is None when no chip is surely ON; the
+        last, per profile row, whether it is sure.
     """
-    chips = detect_chips(profile.values, phy, rows_per_chip, exposure_rows).chips
+    found = detect_chips(profile.values, phy, rows_per_chip, exposure_rows, min_modulation_sigma=WEAK_MODULATION_SIGMA)
+    sure = found.modulation > MIN_MODULATION_SIGMA
+    chips = found.chips
     on = np.flatnonzero((chips.values == 1) & (chips.confidence >= CONFIDENT_ON_CHIP))
     if on.size == 0:
-        return chips, None
-    return chips, (chips.start[on[0]] - SPAN_TOLERANCE_ROWS, chips.end[on[-1]] + SPAN_TOLERANCE_ROWS)
+        return chips, None, sure
+    return chips, (chips.start[on[0]] - SPAN_TOLERANCE_ROWS, chips.end[on[-1]] + SPAN_TOLERANCE_ROWS), sure
+
+
+def passed_or_sure(found: SduCandidates, sure: np.ndarray) -> SduCandidates:
+    """The candidates that passed their check, or lie in sure rows only.
+
+    A failed candidate touching a row whose stripes barely stand out of the
+    noise is dropped: there a failure says nothing about the LED.
+    """
+    if len(found) == 0:
+        return found
+    cumulative = np.concatenate([[0], np.cumsum(~sure)])
+    first = np.clip(np.floor(found.first_row).astype(np.int64), 0, sure.size)
+    last = np.clip(np.ceil(found.last_row).astype(np.int64) + 1, 0, sure.size)
+    unsure = cumulative[last] - cumulative[first] > 0
+    return found.select(found.check_ok | ~unsure)
 
 
 # Row noise, as a fraction of the stripe contrast, above which the profile is
@@ -356,8 +377,8 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
         # reads what thresholding cannot (weak stripes, a long exposure);
         # what only it reads joins thresholding's reading.
         detect = (weighted() if weighted is not None else None) or profile
-        chips, second_span = equalised_chips(detect, phy, pitch, exposure_rows)
-        second = None if second_span is None else decode_chip_stream(chips, phy, second_span)
+        chips, second_span, sure = equalised_chips(detect, phy, pitch, exposure_rows)
+        second = None if second_span is None else passed_or_sure(decode_chip_stream(chips, phy, second_span), sure)
         if found is None or span is None:
             found, span = second, second_span
         elif second is not None and second_span is not None:

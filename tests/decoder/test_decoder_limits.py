@@ -73,7 +73,7 @@ def test_low_snr_scene_is_read():
 
 
 def test_one_row_per_chip_scene_is_read():
-    # 8 frames: 143 of 145 fully visible PHY-SDUs; none before (thresholding
+    # 8 frames: 144 of 145 fully visible PHY-SDUs; none before (thresholding
     # needs 1.2 rows per chip).
     assert_read(scene_outcomes(load_scene("stress-one-row-per-chip"), 6), 100, 0.95)
 
@@ -83,7 +83,7 @@ def test_fine_chips_are_read_in_the_glare_halo():
     # the paper's brightness): 4-row blocks average the stripes away, so the
     # modulation map found only the glare's bright core and the PHY-SDUs in
     # the halo above and below were missed (106 of 138 read in 16 frames);
-    # the region now takes every row there (137 of 138).
+    # the region now takes every row there (138 of 138).
     overrides = ["link.clock_hz=18000", "camera.exposure_us=44.4444", "camera.iso=22500"]
     assert_read(scene_outcomes(load_scene("paper-default", overrides), 4), 30, 0.95)
 
