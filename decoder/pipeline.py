@@ -192,6 +192,8 @@ LONG_EXPOSURE_CHIPS = 0.9
 # Fewer rows than chips cannot determine the chips (a little under one row
 # per chip is a row time slightly off).
 MIN_DETECTED_ROWS_PER_CHIP = 0.95
+# Chips shorter than this many blocks hardly show in the block image.
+UNRESOLVED_CHIP_BLOCKS = 0.75
 
 
 # A chip decided ON with at least this confidence (its least-squares value,
@@ -476,9 +478,8 @@ def decode_frame(
     options: dict[str, Any] = {"include_failed": include_failed, "include_truncated": include_truncated,
                                "min_contrast": min_contrast, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     decoded: list[DecodedPhySdu] = []
-    regions = _region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions,
-                               every_row=options["exposure_rows"] is not None)
-    for index, (_, profile, pitch, weighted) in enumerate(regions):
+    for index, (_, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
+                                                                           max_regions)):
         decoded.extend(_decode_profile_levels(profile, phy, pitch, frame_index=frame_index, region=index,
                                               weighted=weighted, **options)[0])
     return decoded
@@ -493,14 +494,11 @@ def exposure_rows(exposure_s: float | None, row_time_s: float | None) -> float |
     return float(exposure_s) / float(row_time_s)
 
 
-def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int,
-                     every_row: bool = False):
+def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int):
     """Yield ``(frame columns, row profile, nominal rows per chip or None, stripe-weighted profile)`` per LED region.
 
     The last is a callable giving :func:`decoder.profile.stripe_weighted_profile`
-    (None without a chip pitch), computed only if asked for. With
-    ``every_row`` (the exposure is known, so sequence detection can follow
-    thresholding), the largest region takes every row of the frame."""
+    (None without a chip pitch), computed only if asked for."""
     frame = as_frame_array(image)
     pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz is not None and row_time_s is not None else None
     blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
@@ -512,16 +510,12 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
         pitch = frame_rows_per_chip([row_profile(blocks, region) for region in regions], phy)
         if pitch is not None:
             regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch)
-    if regions and every_row and pitch is not None:
-        # The level and modulation maps miss the faint rows of a glare
-        # halo above and below the LED (its stripes fade into the noise
-        # block by block; with chips under a block they do not show at
-        # all), where a row profile still reads them: the largest region
-        # takes every row of the frame, and the sequence detector's
-        # erasures keep to the rows whose stripes show. Thresholding alone
-        # is thrown by the extra rows (saturated stripes at 8 full scales:
-        # 13 of 21 read instead of 21), so only a decoder that can look
-        # twice gets them.
+    if regions and pitch is not None and pitch < UNRESOLVED_CHIP_BLOCKS * blocks.factor:
+        # A block of `factor` rows averages most of a chip this fine away,
+        # so the modulation map finds the LED's bright core but not its
+        # faint rows above and below (a glare halo): the largest region
+        # takes every row of the frame, and the readers' erasures keep to
+        # the rows whose stripes show.
         regions = [full_height(regions[0], blocks.height), *regions[1:]]
     for region in regions:
         profile = row_profile(blocks, region)
@@ -584,9 +578,8 @@ def inspect_frame(
     options = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
                "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     views = []
-    regions = _region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions,
-                               every_row=options["exposure_rows"] is not None)
-    for index, (cols, profile, pitch, weighted) in enumerate(regions):
+    for index, (cols, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
+                                                                              max_regions)):
         sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted, **options)
         rows = slice(profile.first_row, profile.first_row + len(profile))
         views.append(RegionView(rows, cols, profile, None if levels is None else levels.threshold, tuple(sdus), seen))

@@ -657,10 +657,11 @@ def _region_from_mask(image: BlockImage, mask: np.ndarray, x: int, y: int, area:
 
 
 def full_height(region: Region, height: int) -> Region:
-    """The region over every row of the frame (``height`` rows).
+    """The region over every row of the frame (``height`` rows), in its columns.
 
-    Rows above and below it take the columns of its nearest row, as the
-    block rows at its ends do (:func:`_region_from_mask`).
+    Rows outside it take every column any of its rows holds.
     """
-    index = np.clip(np.arange(height) - region.rows.start, 0, region.weights.shape[0] - 1)
-    return Region(slice(0, height), region.block_cols, region.weights[index], region.area_blocks)
+    columns = (region.weights.max(axis=0) > 0).astype(np.float32)
+    weights = np.repeat(columns[None, :], height, axis=0)
+    weights[region.rows] = region.weights
+    return Region(slice(0, height), region.block_cols, weights, region.area_blocks)
