@@ -219,7 +219,7 @@ def stripe_band_weights(bands: np.ndarray, rows_per_chip: float, variance_floor:
     """
     if not variance_floor > 0:
         raise ValueError(f"variance_floor must be > 0, got {variance_floor}")
-    n_rows, n_bands = bands.shape
+    n_bands = bands.shape[1]
     high = stripe_highpass(np.asarray(bands, dtype=np.float64), rows_per_chip)
     windows = [(max(8, int(chips * rows_per_chip)), min(n, n_bands)) for chips, n in WEIGHT_WINDOWS]
     weights = np.full(bands.shape, 1.0 / n_bands)
