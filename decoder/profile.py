@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
 from decoder.kernels import column_means_u8, frame_words
 from decoder.order_stats import median, percentiles
@@ -139,20 +138,59 @@ WEIGHT_RELATIVE_ERROR = 0.1
 WEIGHT_PASSES = 3
 
 
-def _windowed(values: np.ndarray, rows: int, bands: int) -> np.ndarray:
-    """Running means of an (n_rows, n_bands) array: ``rows`` down (zeros past the ends), ``bands`` across."""
-    out = uniform_filter1d(values, rows, axis=0, mode="constant")
-    return uniform_filter1d(out, bands, axis=1, mode="nearest") if bands > 1 else out
+class WindowSums:
+    """Running means of an (n_rows, n_bands) array over windows of rows and bands, from its cumulative sums.
+
+    The five windows of :data:`WEIGHT_WINDOWS` are read from one cumulative
+    sum down the rows (two slices and a difference each), where a running
+    filter per window would pass over the array five times. Rows past the
+    ends count as 0 and bands past the sides repeat the nearest one (as
+    ``scipy.ndimage.uniform_filter1d`` with modes ``constant`` and
+    ``nearest``).
+
+    Parameters
+    ----------
+    values : ndarray of float64, shape (n_rows, n_bands)
+    max_rows : int
+        Longest window down the rows that will be asked for.
+    """
+
+    def __init__(self, values: np.ndarray, max_rows: int):
+        self.n_rows = values.shape[0]
+        self.pad = int(max_rows)
+        cumulative = np.cumsum(values, axis=0)
+        zeros = np.zeros((self.pad + 1, values.shape[1]))
+        ends = np.broadcast_to(cumulative[-1:], (self.pad, values.shape[1]))
+        self.cumulative = np.concatenate([zeros, cumulative, ends])
+
+    def mean(self, rows: int, bands: int) -> np.ndarray:
+        """Mean over ``rows`` rows (window start at i − rows//2) and ``bands`` bands (odd, centred)."""
+        if not 1 <= rows <= self.pad:
+            raise ValueError(f"rows must be in 1 … {self.pad}, got {rows}")
+        if bands < 1 or bands % 2 == 0:
+            raise ValueError(f"bands must be odd and >= 1, got {bands}")
+        start = self.pad - rows // 2
+        sums = self.cumulative[start + rows : start + rows + self.n_rows] - self.cumulative[start : start + self.n_rows]
+        if bands > 1:
+            # A few bands: shifted copies of the edge-padded sums, added.
+            half = bands // 2
+            padded = np.concatenate([np.repeat(sums[:, :1], half, axis=1), sums, np.repeat(sums[:, -1:], half, axis=1)], axis=1)
+            width = sums.shape[1]
+            sums = padded[:, :width].copy()
+            for shift in range(1, bands):
+                sums += padded[:, shift : shift + width]
+        return sums / (rows * bands)
 
 
-def band_correlations(high: np.ndarray, others: np.ndarray, window_rows: int, smooth_bands: int,
+def band_correlations(own: WindowSums, reference: WindowSums, cross: WindowSums, window_rows: int, smooth_bands: int,
                       floor: float) -> tuple[np.ndarray, np.ndarray]:
     """Each band's correlation with a reference over windows of rows and bands, and its sampling variance.
 
     Parameters
     ----------
-    high, others : ndarray of float64, shape (n_rows, n_bands)
-        The bands' high-passed profiles and each band's reference.
+    own, reference, cross : WindowSums
+        Of the bands' high-passed profiles squared, of each band's reference
+        squared, and of their product (shape (n_rows, n_bands)).
     window_rows, smooth_bands : int
         Window down the rows and across the bands.
     floor : float
@@ -166,10 +204,13 @@ def band_correlations(high: np.ndarray, others: np.ndarray, window_rows: int, sm
         correlation near 0; rows correlated by the high-pass make it a
         little optimistic).
     """
-    held = uniform_filter1d(np.ones(high.shape[0]), window_rows, mode="constant") * window_rows * smooth_bands
-    own = np.maximum(_windowed(high * high, window_rows, smooth_bands), floor)
-    reference = np.maximum(_windowed(others * others, window_rows, smooth_bands), floor)
-    correlation = _windowed(high * others, window_rows, smooth_bands) / np.sqrt(own * reference)
+    n_rows = own.n_rows
+    rows = np.arange(n_rows)
+    # Rows of each window inside the profile (those past the ends hold 0).
+    held = (np.minimum(rows - window_rows // 2 + window_rows, n_rows) - np.maximum(rows - window_rows // 2, 0)) * smooth_bands
+    own_power = np.maximum(own.mean(window_rows, smooth_bands), floor)
+    reference_power = np.maximum(reference.mean(window_rows, smooth_bands), floor)
+    correlation = cross.mean(window_rows, smooth_bands) / np.sqrt(own_power * reference_power)
     return correlation, np.broadcast_to(1.0 / held[:, None], correlation.shape)
 
 
@@ -221,16 +262,21 @@ def stripe_band_weights(bands: np.ndarray, rows_per_chip: float, variance_floor:
         raise ValueError(f"variance_floor must be > 0, got {variance_floor}")
     n_bands = bands.shape[1]
     high = stripe_highpass(np.asarray(bands, dtype=np.float64), rows_per_chip)
-    windows = [(max(8, int(chips * rows_per_chip)), min(n, n_bands)) for chips, n in WEIGHT_WINDOWS]
+    # Windows across the bands are centred: an odd number of them.
+    widest = n_bands if n_bands % 2 else n_bands - 1
+    windows = [(max(8, int(chips * rows_per_chip)), min(n, widest)) for chips, n in WEIGHT_WINDOWS]
+    longest = max(rows for rows, _ in windows)
+    own = WindowSums(high * high, longest)
     weights = np.full(bands.shape, 1.0 / n_bands)
     for _ in range(WEIGHT_PASSES):
         total = np.sum(high * weights, axis=1)
         others = total[:, None] - high * weights
+        sums = own, WindowSums(others * others, longest), WindowSums(high * others, longest)
         # From the widest window to the narrowest: a narrower one replaces
         # the estimate wherever it is precise enough.
-        correlation, spread = band_correlations(high, others, *windows[-1], variance_floor)
+        correlation, spread = band_correlations(*sums, *windows[-1], variance_floor)
         for window in windows[-2::-1]:
-            shorter, shorter_spread = band_correlations(high, others, *window, variance_floor)
+            shorter, shorter_spread = band_correlations(*sums, *window, variance_floor)
             precise = shorter_spread < (WEIGHT_RELATIVE_ERROR * shorter) ** 2
             correlation, spread = np.where(precise, shorter, correlation), np.where(precise, shorter_spread, spread)
         square = correlation * correlation

@@ -181,3 +181,38 @@ def test_stripe_band_weights_of_flat_bands_are_zero():
 
     weights = stripe_band_weights(np.full((200, 8), 12.0), 4.0, 1e-6)
     assert np.all(weights == 0)
+
+
+@pytest.mark.parametrize(("n_rows", "n_bands", "rows", "bands"), [(50, 7, 1, 1), (50, 7, 8, 3), (50, 7, 9, 5), (30, 4, 60, 3), (200, 60, 54, 1)])
+def test_window_sums_are_running_means(n_rows, n_bands, rows, bands):
+    # Known answer: scipy's running means, zeros past the rows' ends and the
+    # nearest band past the sides (even windows start at i - rows // 2).
+    from scipy.ndimage import uniform_filter1d
+
+    from decoder.profile import WindowSums
+
+    values = np.random.default_rng(n_rows + rows).normal(0.0, 3.0, (n_rows, n_bands))
+    expected = uniform_filter1d(values, rows, axis=0, mode="constant")
+    expected = uniform_filter1d(expected, bands, axis=1, mode="nearest")
+    assert np.allclose(WindowSums(values, 64).mean(rows, bands), expected, rtol=0, atol=1e-12)
+
+
+def test_window_sums_refuse_windows_they_cannot_serve():
+    from decoder.profile import WindowSums
+
+    sums = WindowSums(np.ones((10, 3)), 8)
+    with pytest.raises(ValueError, match="rows"):
+        sums.mean(9, 1)
+    with pytest.raises(ValueError, match="bands"):
+        sums.mean(4, 2)
+
+
+def test_stripe_band_weights_of_two_bands():
+    # Two bands leave no odd window across three: one band, and still weights.
+    from decoder.profile import stripe_band_weights
+
+    rng = np.random.default_rng(2)
+    stripes = ((np.arange(400) // 4) % 2).astype(float)
+    bands = 10.0 + 5.0 * stripes[:, None] + rng.normal(0.0, 0.5, (400, 2))
+    weights = stripe_band_weights(bands, 4.0, 1e-6)
+    assert np.allclose(weights.sum(axis=1)[50:-50], 1.0)
