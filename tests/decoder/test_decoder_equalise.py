@@ -272,8 +272,9 @@ def test_failed_candidates_in_barely_modulated_rows_are_dropped():
 def test_weak_stripes_at_13_db_are_read():
     # paper-geometric with its LED at 0.00048 cd: stripes 13.3 dB over the
     # noise of a row mean (rollsim bench envelope's snr map), where the
-    # genie reads all. 16 frames: 42 of 52 read; 29 when rows had to stand
-    # 3 sigmas out to be read at all, none before the correlation weights.
+    # genie reads all. 16 frames: 43 of 52 read (42 with rows read from 2.5
+    # sigmas rather than 2); 29 when rows had to stand 3 sigmas out to be
+    # read at all, none before the correlation weights.
     from rollsim.scene import load_scene
     from rollsim.stream import scene_outcomes
 
