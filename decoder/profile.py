@@ -181,6 +181,11 @@ class WindowSums:
                 sums += padded[:, shift : shift + width]
         return sums / (rows * bands)
 
+    def rows_inside(self, rows: int) -> np.ndarray:
+        """How many rows of each window of ``rows`` (as :meth:`mean` lays it) lie inside the array, shape (n_rows,)."""
+        first = np.arange(self.n_rows) - rows // 2
+        return np.minimum(first + rows, self.n_rows) - np.maximum(first, 0)
+
 
 def band_correlations(own: WindowSums, reference: WindowSums, cross: WindowSums, window_rows: int, smooth_bands: int,
                       floor: float) -> tuple[np.ndarray, np.ndarray]:
@@ -204,10 +209,8 @@ def band_correlations(own: WindowSums, reference: WindowSums, cross: WindowSums,
         correlation near 0; rows correlated by the high-pass make it a
         little optimistic).
     """
-    n_rows = own.n_rows
-    rows = np.arange(n_rows)
-    # Rows of each window inside the profile (those past the ends hold 0).
-    held = (np.minimum(rows - window_rows // 2 + window_rows, n_rows) - np.maximum(rows - window_rows // 2, 0)) * smooth_bands
+    # Samples of each window inside the profile (rows past the ends hold 0).
+    held = own.rows_inside(window_rows) * smooth_bands
     own_power = np.maximum(own.mean(window_rows, smooth_bands), floor)
     reference_power = np.maximum(reference.mean(window_rows, smooth_bands), floor)
     correlation = cross.mean(window_rows, smooth_bands) / np.sqrt(own_power * reference_power)

@@ -257,3 +257,14 @@ def test_the_chip_stage_reads_the_genies_profile_near_the_genies_boundary():
                 read += (sdu["sequence"], sdu["bits"]) in passed
     assert visible >= 48
     assert read >= 0.9 * visible
+
+
+@pytest.mark.parametrize("rows", [1, 8, 9, 60])
+def test_window_sums_count_the_rows_inside(rows):
+    # Known answer: the running mean of ones, zeros past the ends, times the window.
+    from scipy.ndimage import uniform_filter1d
+
+    from decoder.profile import WindowSums
+
+    expected = uniform_filter1d(np.ones(30), rows, mode="constant") * rows
+    assert np.allclose(WindowSums(np.ones((30, 2)), 64).rows_inside(rows), expected, rtol=0, atol=1e-9)
