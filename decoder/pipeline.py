@@ -586,7 +586,8 @@ def inspect_frame(
     return views
 
 
-def stripe_row_fraction(image, phy: PhyFormat, clock_hz: float | None = None, row_time_s: float | None = None) -> float:
+def stripe_row_fraction(image, phy: PhyFormat, clock_hz: float | None = None, row_time_s: float | None = None, *,
+                        exposure_s: float | None = None) -> float:
     """Fraction of the frame's rows in which the decoder reads the LED's stripes.
 
     The union over LED regions of :attr:`RegionView.stripe_rows`, over the
@@ -598,15 +599,18 @@ def stripe_row_fraction(image, phy: PhyFormat, clock_hz: float | None = None, ro
     ----------
     image : ndarray
         A frame, as :func:`decode_frame` takes it.
-    phy, clock_hz, row_time_s
-        As for :func:`decode_frame`.
+    phy, clock_hz, row_time_s, exposure_s
+        As for :func:`decode_frame`. Told the exposure, the decoder's second
+        look (sequence detection) may read stripes in rows thresholding
+        does not, so the fraction may be larger.
 
     Returns
     -------
     float
         In [0, 1].
     """
-    return views_stripe_fraction(inspect_frame(image, phy, clock_hz, row_time_s), np.asarray(image).shape[0])
+    views = inspect_frame(image, phy, clock_hz, row_time_s, exposure_s=exposure_s)
+    return views_stripe_fraction(views, np.asarray(image).shape[0])
 
 
 def views_stripe_fraction(views: Iterable[RegionView], height: int) -> float:
