@@ -336,17 +336,27 @@ def test_stripe_rows_are_the_leds_rows(distance_cm):
     assert all(geometric - 18 / 1080 <= f <= geometric + 1 / 1080 for f in fractions), (fractions, geometric)
 
 
-def measured_roi(distance_cm: float, frames: int) -> float:
-    """paper-default's stripe rows over the frame's, at a distance, mean over frames."""
-    from decoder import stripe_row_fraction
+def paper_default_frames(distance_cm: float, frames: int):
+    """paper-default's decode settings and first ``frames`` frames at a distance."""
     from rollsim.render import RenderPipeline
 
     scene = load_scene("paper-default", [f"link.distance_cm={distance_cm}"])
-    settings = settings_from_scene(scene)
     pipeline = RenderPipeline(scene)
-    return float(np.mean([stripe_row_fraction(pipeline.render(k).image, settings.phy, settings.clock_hz,
-                                              settings.row_time_s, exposure_s=settings.exposure_s)
-                          for k in range(frames)]))
+    return settings_from_scene(scene), [pipeline.render(k).image for k in range(frames)]
+
+
+def stripe_rows_mean(settings, images, told_exposure: bool = True) -> float:
+    """Mean over ``images`` of the decoder's stripe rows over the frame's (told the exposure, as every run is)."""
+    from decoder import stripe_row_fraction
+
+    exposure_s = settings.exposure_s if told_exposure else None
+    return float(np.mean([stripe_row_fraction(image, settings.phy, settings.clock_hz, settings.row_time_s,
+                                              exposure_s=exposure_s) for image in images]))
+
+
+def measured_roi(distance_cm: float, frames: int) -> float:
+    """paper-default's stripe rows over the frame's, at a distance, mean over frames."""
+    return stripe_rows_mean(*paper_default_frames(distance_cm, frames))
 
 
 # The emitter was fitted to the rows thresholding reads. Told the exposure
@@ -369,17 +379,11 @@ def test_the_roi_overshoot_at_25_cm_is_the_second_looks():
     """Where the rows overshoot (25 cm), thresholding's alone (the decoder
     not told the exposure) are still within 0.05 of the testbed's, and the
     second look's reach past them."""
-    from decoder import stripe_row_fraction
     from rollsim.channel.channels import camcomsim_roi as paper_measured_roi
-    from rollsim.render import RenderPipeline
 
-    scene = load_scene("paper-default", ["link.distance_cm=25"])
-    settings = settings_from_scene(scene)
-    pipeline = RenderPipeline(scene)
-    images = [pipeline.render(k).image for k in range(3)]
-    args = settings.phy, settings.clock_hz, settings.row_time_s
-    thresholded = np.mean([stripe_row_fraction(image, *args) for image in images])
-    told = np.mean([stripe_row_fraction(image, *args, exposure_s=settings.exposure_s) for image in images])
+    settings, images = paper_default_frames(25, 3)
+    thresholded = stripe_rows_mean(settings, images, told_exposure=False)
+    told = stripe_rows_mean(settings, images)
     assert thresholded == pytest.approx(paper_measured_roi(25), abs=0.05)
     assert told > thresholded + 0.01
 
