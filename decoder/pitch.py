@@ -99,7 +99,9 @@ def peak_period_rows(signal: np.ndarray, min_rows: float, max_rows: float) -> fl
 
     Parameters
     ----------
-    signal : ndarray, shape (n,)
+    signal : ndarray, shape (n,) or (m, n)
+        One signal, or m signals along the same rows whose power spectra
+        are added (lines common to them add whatever their phases).
     min_rows, max_rows : float
         The band searched, as periods in rows.
 
@@ -108,11 +110,13 @@ def peak_period_rows(signal: np.ndarray, min_rows: float, max_rows: float) -> fl
     float or None
         None when the band holds fewer than three frequency bins.
     """
-    n = signal.size
+    signals = np.atleast_2d(np.asarray(signal, dtype=np.float64))
+    n = signals.shape[1]
     if n < 4:
         return None
     size = 1 << int(np.ceil(np.log2(8 * n)))
-    spectrum = np.abs(np.fft.rfft((signal - signal.mean()) * np.hanning(n), size))
+    transforms = np.fft.rfft((signals - signals.mean(axis=1, keepdims=True)) * np.hanning(n), size, axis=1)
+    spectrum = np.abs(transforms[0]) if len(signals) == 1 else np.sqrt(np.sum(np.abs(transforms) ** 2, axis=0))
     freqs = np.fft.rfftfreq(size)
     band = (freqs >= 1.0 / max_rows) & (freqs <= 1.0 / min_rows)
     if band.sum() < 3:
@@ -131,7 +135,13 @@ def edge_energy_period_rows(values: np.ndarray) -> float | None:
 
     The edge energy (the squared row-to-row difference) is cyclostationary
     with the period of a code symbol: its lines lie at harmonics of the
-    symbol rate, the chip rate among them.
+    symbol rate, the chip rate among them. Rising and falling edges are
+    taken apart and their power spectra added: saturation moves every
+    rising edge one way and every falling edge the other, by an amount that
+    changes with the row's brightness, and in one sequence the two grids'
+    lines would interfere (on paper-default at 5 cm, whose core saturates,
+    the strongest line of the joint energy lay at 7.9 rows, the pitch being
+    4.5); each polarity alone lies on the chip grid.
 
     Returns
     -------
@@ -142,7 +152,9 @@ def edge_energy_period_rows(values: np.ndarray) -> float | None:
     max_rows = values.size / 4.0
     if max_rows <= 2.0 * MIN_ROWS_PER_CHIP:
         return None
-    return peak_period_rows(np.diff(values) ** 2, MIN_ROWS_PER_CHIP, max_rows)
+    steps = np.diff(values)
+    return peak_period_rows(np.stack([np.maximum(steps, 0.0) ** 2, np.minimum(steps, 0.0) ** 2]),
+                            MIN_ROWS_PER_CHIP, max_rows)
 
 
 def pitch_candidates(period_rows: float, symbol_chips: int, max_rows: float) -> list[float]:

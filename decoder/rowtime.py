@@ -37,14 +37,17 @@ MIN_EDGES = 8
 # an RMS residual above this fraction of the period means the frame shows
 # something else (data, or no stripes), and it gives no estimate.
 MAX_RESIDUAL_PERIODS = 0.1
-# A square wave's ON runs all have one length, and so do its OFF runs (the
-# exposure and blooming may make them unequal to each other), and the two
-# add up to the period. Data can put every edge on a grid of one period
-# (a pulse-length code of 1- and 3-chip runs does, on a 2-chip grid) and
-# fit the regression. A frame is a square wave's when at least
-# MIN_TYPICAL_RUNS of each level's runs lie within RUN_TOLERANCE_PERIODS of
-# the period (or MIN_RUN_TOLERANCE_ROWS, a row's rounding) of their median:
-# noise may split or merge a few runs, data moves half of them a chip.
+# A square wave's ON run and the OFF run beside it add up to the period.
+# Each alone need not have one length: where the LED saturates the pixels,
+# ON runs widen and OFF runs narrow by as much, the more the brighter the
+# row (a Galaxy S3's 8.3-row period on paper-default's LED at 5 cm: 4.1 +
+# 4.1 rows in the halo, 5.8 + 2.5 in the core). Data can put every edge on a grid of one period (a
+# pulse-length code of 1- and 3-chip runs does, on a 2-chip grid) and fit
+# the regression, but its neighbouring runs add up to 2, 4 or 6 chips. A
+# frame is a square wave's when at least MIN_TYPICAL_RUNS of its pairs of
+# neighbouring whole runs add up to the period within RUN_TOLERANCE_PERIODS
+# of it (or MIN_RUN_TOLERANCE_ROWS, a row's rounding): noise may split or
+# merge a few runs, data moves half of them a chip.
 RUN_TOLERANCE_PERIODS = 0.15
 MIN_RUN_TOLERANCE_ROWS = 0.75
 MIN_TYPICAL_RUNS = 0.75
@@ -128,12 +131,14 @@ def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, flo
 
 
 def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: float) -> bool:
-    """Whether the whole runs (ON and OFF between two decided runs) are a square wave's.
+    """Whether neighbouring whole runs add up to a square wave's period.
 
-    At least :data:`MIN_TYPICAL_RUNS` of each level's runs lie within the
-    tolerance (:data:`RUN_TOLERANCE_PERIODS` of the period, at least
-    :data:`MIN_RUN_TOLERANCE_ROWS`) of that level's median length, and the
-    two medians add up to the period within it.
+    A run is whole when it and both its neighbours are decided. At least
+    :data:`MIN_TYPICAL_RUNS` of the pairs of neighbouring whole runs (an ON
+    and an OFF run) add up to ``period_rows`` within the tolerance
+    (:data:`RUN_TOLERANCE_PERIODS` of the period, at least
+    :data:`MIN_RUN_TOLERANCE_ROWS`), and there are at least two of each
+    level's whole runs.
 
     Parameters
     ----------
@@ -147,15 +152,12 @@ def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: 
     values = np.asarray(values)
     whole = np.zeros(values.size, dtype=bool)
     whole[1:-1] = (values[1:-1] >= 0) & (values[:-2] >= 0) & (values[2:] >= 0)
-    on, off = lengths[whole & (values == 1)], lengths[whole & (values == 0)]
-    if on.size < 2 or off.size < 2:
+    if np.count_nonzero(whole & (values == 1)) < 2 or np.count_nonzero(whole & (values == 0)) < 2:
         return False
+    pairs = whole[:-1] & whole[1:]
+    sums = (lengths[:-1] + lengths[1:])[pairs]
     tolerance = max(RUN_TOLERANCE_PERIODS * period_rows, MIN_RUN_TOLERANCE_ROWS)
-
-    def typical(runs: np.ndarray) -> bool:
-        return bool(np.mean(np.abs(runs - np.median(runs)) <= tolerance) >= MIN_TYPICAL_RUNS)
-
-    return typical(on) and typical(off) and abs(np.median(on) + np.median(off) - period_rows) <= tolerance
+    return bool(np.mean(np.abs(sums - period_rows) <= tolerance) >= MIN_TYPICAL_RUNS)
 
 
 def frame_period_rows(image) -> tuple[float, float, int] | None:
@@ -166,7 +168,15 @@ def frame_period_rows(image) -> tuple[float, float, int] | None:
     regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
     if not regions:
         return None
-    profile = row_profile(blocks, regions[0])
+    return profile_period_rows(row_profile(blocks, regions[0]))
+
+
+def profile_period_rows(profile: RowProfile) -> tuple[float, float, int] | None:
+    """Square-wave stripe period (rows) of a row profile: its spectrum's guess, refined over its edges.
+
+    Returns ``(period_rows, standard_error_rows, n_edges)`` as
+    :func:`edge_period_rows`, or None.
+    """
     guess = spectral_period_rows(profile.values)
     if guess is None:
         return None

@@ -277,3 +277,13 @@ def profile_from_chips(chips, rows_per_chip, exposure_rows=0.8, phase_chips=0.0,
         rng = np.random.default_rng(0) if rng is None else rng
         values = values + rng.normal(0.0, noise, values.shape)
     return values
+
+
+def core_saturated(level, peak_full_scales=6.0):
+    """A level (0 … 1 of the ON signal) under a bright core: the gain rises
+    from 0.6 at the profile's ends to ``peak_full_scales`` mid-profile, and
+    the pixels clip at full scale (1), as an LED with a halo saturates its
+    centre. ON runs widen and OFF runs narrow the more the brighter the row."""
+    rows = np.arange(level.size)
+    gain = 0.6 + (peak_full_scales - 0.6) * np.exp(-(((rows - level.size / 2) / (level.size / 4)) ** 2))
+    return np.minimum(level * gain, 1.0)

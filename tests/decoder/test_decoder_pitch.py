@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from synth import profile_from_chips
+from synth import core_saturated, profile_from_chips
 
 from decoder.pipeline import _region_profiles, decode_frame, frame_rows_per_chip, profile_rows_per_chip
 from decoder.pitch import GridFit, choose_grid, edge_grid_fit, peak_period_rows, pitch_candidates
@@ -94,6 +94,19 @@ def test_a_profile_gives_its_pitch(rows_per_chip, exposure_chips, ceiling):
     values = profile_from_chips(chips, rows_per_chip, exposure_chips * rows_per_chip)
     values = 10.0 + 200.0 * np.minimum(values, ceiling) / ceiling + rng.normal(0.0, 2.0, values.size)
     profile = RowProfile(0, values, np.full(values.size, 2.0))
+    assert profile_rows_per_chip(profile, PHY) == pytest.approx(rows_per_chip, rel=0.002)
+
+
+@pytest.mark.parametrize("rows_per_chip", [3.3, 4.5, 9.3])
+def test_a_profile_saturated_in_its_core_gives_its_pitch(rows_per_chip):
+    """Saturation that varies along the profile moves the rising and the
+    falling edges apart by a varying amount: each polarity stays on the chip
+    grid, but in one edge-energy sequence their lines interfere."""
+    rng = np.random.default_rng(int(rows_per_chip * 10) + 1)
+    chips = manchester_chips(int(1080 / rows_per_chip / 2), rng)
+    level = core_saturated(profile_from_chips(chips, rows_per_chip, 0.8 * rows_per_chip))
+    values = 40.0 + 210.0 * level + rng.normal(0.0, 1.0, level.size)
+    profile = RowProfile(0, values, np.full(values.size, 1.0))
     assert profile_rows_per_chip(profile, PHY) == pytest.approx(rows_per_chip, rel=0.002)
 
 

@@ -3,10 +3,11 @@
 import cv2
 import numpy as np
 import pytest
-from synth import make_transmitter, profile_from_chips, synth_frame
+from synth import core_saturated, make_transmitter, profile_from_chips, synth_frame
 
 from decoder import RowTimeError, estimate_row_time
-from decoder.rowtime import runs_fit_a_square_wave, spectral_period_rows
+from decoder.profile import RowProfile
+from decoder.rowtime import profile_period_rows, runs_fit_a_square_wave, spectral_period_rows
 
 # (clock Hz, row time s, exposure s): stripe periods of 2.5 to 25 rows,
 # exposures from a quarter chip to 1.5 chips.
@@ -135,6 +136,24 @@ def test_run_lengths_of_a_square_wave_and_of_data():
     assert not runs_fit_a_square_wave(values, bounds, 12.0)  # the runs do not add up to the period
     data = np.cumsum([0, 3, 2, 6, 6, 2, 2, 6, 2, 3])  # runs of 1 and 3 chips at 2 rows per chip
     assert not runs_fit_a_square_wave(values, data, 8.0)
+
+
+def test_run_lengths_of_a_square_wave_saturated_in_its_core():
+    # ON runs widen and OFF runs narrow together where the LED saturates
+    # (4 + 4 rows in the halo, 6 + 2 in the core): each pair adds up to the period.
+    bounds = np.cumsum([0, 3, 4, 4, 5, 3, 6, 2, 6, 2, 6, 2, 5, 3, 4, 4, 3])
+    values = np.array([1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0])
+    assert runs_fit_a_square_wave(values, bounds, 8.0)
+    assert not runs_fit_a_square_wave(values, bounds, 10.0)
+
+
+@pytest.mark.parametrize("period_rows", [8.26, 10.37, 16.0])
+def test_a_square_wave_saturated_in_its_core_gives_its_period(period_rows):
+    rng = np.random.default_rng(int(period_rows * 100))
+    level = core_saturated(profile_from_chips([1, 0] * int(1080 / period_rows), period_rows / 2, 0.4 * period_rows))
+    values = 40.0 + 210.0 * level + rng.normal(0.0, 1.0, level.size)
+    found = profile_period_rows(RowProfile(0, values, np.full(values.size, 1.0)))
+    assert found is not None and found[0] == pytest.approx(period_rows, rel=0.002)
 
 
 def test_the_cli_refuses_data_frames(tmp_path, capsys):
