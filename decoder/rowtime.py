@@ -156,6 +156,8 @@ def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: 
         return False
     pairs = whole[:-1] & whole[1:]
     sums = (lengths[:-1] + lengths[1:])[pairs]
+    if sums.size == 0:  # whole runs of the two levels, but never side by side
+        return False
     tolerance = max(RUN_TOLERANCE_PERIODS * period_rows, MIN_RUN_TOLERANCE_ROWS)
     return bool(np.mean(np.abs(sums - period_rows) <= tolerance) >= MIN_TYPICAL_RUNS)
 

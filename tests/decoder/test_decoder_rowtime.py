@@ -145,6 +145,9 @@ def test_run_lengths_of_a_square_wave_saturated_in_its_core():
     values = np.array([1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0])
     assert runs_fit_a_square_wave(values, bounds, 8.0)
     assert not runs_fit_a_square_wave(values, bounds, 10.0)
+    # Whole runs of each level, none beside one of the other: no pair to add up.
+    apart = np.array([1, 0, 1, -1, 0, 1, 0, -1, 1, 0, 1, -1, 0, 1, 0])
+    assert not runs_fit_a_square_wave(apart, np.arange(apart.size + 1) * 4.0, 8.0)
 
 
 @pytest.mark.parametrize("period_rows", [8.26, 10.37, 16.0])
