@@ -12,6 +12,7 @@ from rollsim.cli import main
 from rollsim.decode import decode_directory, frame_files, settings_from_scene
 from rollsim.evaluate import evaluate, read_jsonl
 from rollsim.scene import load_scene
+from rollsim.bench.emitter_fit import FIG11_DISTANCES_CM, stripe_rows
 from rollsim.transmitter import transmitter_from_scene
 
 # Fast: the geometric LED's disk fills 480 columns, its rows unchanged. (With
@@ -356,10 +357,7 @@ def stripe_rows_mean(settings, images, told_exposure: bool = True) -> float:
 
 def measured_roi(distance_cm: float, frames: int) -> float:
     """paper-default's stripe rows over the frame's, at a distance, mean over frames."""
-    return stripe_rows_mean(*paper_default_frames(distance_cm, frames))
-
-
-FIG11_DISTANCES_CM = [5, 10, 15, 20, 25, 30, 35, 40]
+    return stripe_rows(None, distance_cm, frames)
 
 
 @pytest.mark.parametrize("distance_cm", FIG11_DISTANCES_CM)

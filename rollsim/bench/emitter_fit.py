@@ -20,11 +20,10 @@ from typing import Sequence
 
 import numpy as np
 
-from decoder import stripe_row_fraction
 from rollsim.channel.channels import camcomsim_roi
-from rollsim.decode import settings_from_scene
 from rollsim.render import RenderPipeline
 from rollsim.scene import load_scene
+from rollsim.stream import DecodedRun
 
 FIG11_DISTANCES_CM = (5, 10, 15, 20, 25, 30, 35, 40)
 
@@ -56,16 +55,18 @@ class EmitterSet:
                 f"effects.glare.core_angle_deg={self.core_angle_deg}", f"effects.glare.exponent={self.exponent}"]
 
 
-def stripe_rows(emitter: EmitterSet, distance_cm: float, frames: int, seed: int | None = None) -> float:
-    """Mean over ``frames`` frames of the decoder's stripe rows over the frame's, told the exposure."""
-    extra = [] if seed is None else [f"seed={seed}"]
-    scene = load_scene("paper-default", [f"link.distance_cm={distance_cm}", *emitter.overrides(), *extra])
-    settings = settings_from_scene(scene)
-    pipeline = RenderPipeline(scene)
-    return float(np.mean([
-        stripe_row_fraction(pipeline.render(k).image, settings.phy, settings.clock_hz, settings.row_time_s,
-                            exposure_s=settings.exposure_s)
-        for k in range(frames)]))
+def stripe_rows(emitter: EmitterSet | None, distance_cm: float, frames: int, seed: int | None = None) -> float:
+    """Mean over ``frames`` frames of the decoder's stripe rows over the frame's, told the exposure.
+
+    ``emitter`` None keeps paper-default's own. Measured as ``rollsim
+    paper`` measures Fig. 11's rows (:class:`rollsim.stream.DecodedRun`).
+    """
+    overrides = [f"link.distance_cm={distance_cm}", *([] if emitter is None else emitter.overrides())]
+    scene = load_scene("paper-default", [*overrides, *([] if seed is None else [f"seed={seed}"])])
+    run = DecodedRun(RenderPipeline(scene), measure_stripes=True)
+    for index in range(frames):
+        run.step(index)
+    return float(np.mean(run.stripe_fractions))
 
 
 def fig11_misfit(emitter: EmitterSet, frames: int, distances_cm: Sequence[float] = FIG11_DISTANCES_CM,

@@ -26,7 +26,7 @@ the light (η = 0.5), its core angle (θ₀ = 3°) and its exponent (β = 1.75,
 wings ∝ θ⁻³·⁵). They were chosen on grids (I_v 0.025-0.07 cd, η 0.4-0.95,
 θ₀ 2.5-5.5°, β 1.5-2.5; 840 sets) to minimise the largest difference
 between the decoder's stripe rows (:func:`decoder.stripe_row_fraction`,
-told the exposure as every run is, 20 frames per distance) and Fig. 11 at
+told the exposure as every run is, 8 frames per distance on the first grid, 20 on the finer two) and Fig. 11 at
 5-40 cm; the chosen set is within 0.023 everywhere over 10 frames, 0.019
 over 60, 0.020 over 60 frames of another seed. The fit constrains the
 halo's light, η·I_v ≈ 0.03 cd, more than its split: 0.05 cd with η = 0.6 and
