@@ -24,7 +24,7 @@ distance (the paper scenes differ only in ``link.distance_cm``):
 Fitted, not measured: the luminous intensity (0.06 cd), the halo's share of
 the light (η = 0.5), its core angle (θ₀ = 3°) and its exponent (β = 1.75,
 wings ∝ θ⁻³·⁵). They were chosen on grids (I_v 0.025-0.07 cd, η 0.4-0.95,
-θ₀ 2.5-5.5°, β 1.5-2.5; 840 sets) to minimise the largest difference
+θ₀ 2.5-5.5°, β 1.6-2.5; 864 sets) to minimise the largest difference
 between the decoder's stripe rows (:func:`decoder.stripe_row_fraction`,
 told the exposure as every run is, 8 frames per distance on the first grid, 20 on the finer two) and Fig. 11 at
 5-40 cm; the chosen set is within 0.023 everywhere over 10 frames, 0.019
