@@ -332,23 +332,33 @@ def _worth_a_second_look(found, n_rows: int, sdu_rows: float) -> bool:
 
     A profile too short for a whole PHY-SDU has none to read. Otherwise: a
     candidate failed, or fewer passed than surely fit in its rows (⌊n/S⌋ − 1
-    for PHY-SDUs S rows long: weak stripes are erased, not failed).
+    for PHY-SDUs S rows long: weak stripes are erased, not failed), or one
+    inside the profile's rows was cut by where thresholding stopped seeing
+    the LED (a fading halo whose stripes sequence detection still reads).
     """
     whole = int(n_rows // sdu_rows)
     if whole < 1:
         return False
-    return not _all_read(found) or _passed(found) < whole - 1
+    if not _all_read(found) or _passed(found) < whole - 1:
+        return True
+    inside = (found.first_row >= -0.5) & (found.last_row <= n_rows - 0.5)
+    return bool(np.any((found.status == TRUNCATED) & inside))
 
 
 def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, include_failed, include_truncated,
-                           min_contrast, exposure_rows=None,
-                           weighted=None) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
+                           min_contrast, exposure_rows=None, weighted=None,
+                           measure_span=False) -> tuple[list[DecodedPhySdu], Binarized | None, tuple[int, int] | None]:
     """:func:`decode_profile`, the levels it binarised (None when it found no chip pitch), and
     the first and last frame row where it surely saw the LED's stripes (None if nowhere).
 
     ``weighted``, if given, returns the same rows' stripe-weighted profile
     (:func:`decoder.profile.stripe_weighted_profile`, or None) for the
-    sequence detector; it is called only when the detector runs."""
+    sequence detector; it is called only when the detector runs.
+
+    With ``measure_span`` and the exposure known, the detector always runs
+    on a profile that holds a whole PHY-SDU, and the rows it sees join
+    thresholding's, whether or not its reading was needed: the measured
+    stripe rows do not depend on how well thresholding did."""
     # A region too short for a PHY-SDU may still show stripes (the LED's
     # rows are measured even where no PHY-SDU fits); fewer rows than the
     # shortest run pattern cannot.
@@ -372,17 +382,23 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     found, span = None, None
     if not long_exposure and runs is not None and levels is not None:
         found, span = _thresholded_candidates(runs, levels, pitch, phy)
-    if exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), phy.sdu_chips * pitch)):
+    sdu_rows = phy.sdu_chips * pitch
+    second_look = exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), sdu_rows))
+    measure_only = (measure_span and exposure_rows is not None and not second_look and found is not None
+                    and span is not None and len(profile) >= sdu_rows)
+    if second_look or measure_only:
         # A second look, by sequence detection over the known smear: it
         # reads what thresholding cannot (weak stripes, a long exposure);
         # what only it reads joins thresholding's reading.
         detect = (weighted() if weighted is not None else None) or profile
         chips, second_span, sure = equalised_chips(detect, phy, pitch, exposure_rows)
-        second = None if second_span is None else passed_or_sure(decode_chip_stream(chips, phy, second_span), sure)
+        second = None if second_span is None or measure_only else passed_or_sure(
+            decode_chip_stream(chips, phy, second_span), sure)
         if found is None or span is None:
             found, span = second, second_span
-        elif second is not None and second_span is not None:
-            found = merge_readings(found, second, phy.sdu_chips * pitch)
+        elif second_span is not None:
+            if second is not None:
+                found = merge_readings(found, second, sdu_rows)
             span = (min(span[0], second_span[0]), max(span[1], second_span[1]))
     if found is None or span is None:
         return [], levels, None
@@ -548,7 +564,9 @@ class RegionView:
     stripe_rows : (int, int) or None
         First and last frame row where the decoder surely reads the LED's
         stripes (from the first to the last ON run that clearly reaches the
-        ON level: where a whole PHY-SDU may lie); None if nowhere.
+        ON level: where a whole PHY-SDU may lie; told the exposure, joined
+        by the span of the chips sequence detection surely decides ON,
+        always); None if nowhere.
     """
 
     rows: slice
@@ -573,14 +591,18 @@ def inspect_frame(
     """Decode one frame and return, per LED region, what the decoder saw.
 
     Same parameters as :func:`decode_frame`; the PHY-SDUs are those it
-    returns (failed ones included, truncated ones not).
+    returns (failed ones included, truncated ones not). Told the exposure,
+    it runs sequence detection on every region that holds a whole PHY-SDU
+    for the stripe rows, even where decoding did not need it, so it costs
+    more than :func:`decode_frame`.
     """
     options = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
                "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     views = []
     for index, (cols, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
                                                                               max_regions)):
-        sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted, **options)
+        sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted,
+                                                    measure_span=True, **options)
         rows = slice(profile.first_row, profile.first_row + len(profile))
         views.append(RegionView(rows, cols, profile, None if levels is None else levels.threshold, tuple(sdus), seen))
     return views

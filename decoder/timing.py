@@ -19,8 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from decoder.order_stats import percentile
-
 # Chips reaching farther than this past a cut (rows) are not exact. Edges at
 # a footprint's ends are known to about half a row (partial rows, short
 # exposures), so a PHY-SDU may miss up to this much of a chip and pass.
@@ -144,16 +142,19 @@ def edge_bias_chips(runs: Runs, rows_per_chip: float, min_runs: int = 8, window_
     every falling edge late by the same amount: ON runs look k + β chips
     long and OFF runs k − β. β is the circular mean of the runs' fractional
     lengths (ON runs counted as +length, OFF runs as −length), among runs
-    with a real edge on both sides. Its alias (β or β − 1) is the one under
-    which the short runs still hold at least one chip each. The same mean
-    over a sliding window of ``window_runs`` runs follows β along the
-    profile, taking the alias nearest the global one.
+    with a real edge on both sides, over a sliding window of
+    ``window_runs`` runs, so that it follows the saturation along the
+    profile. Of its two aliases (β and β − 1) a window takes the one under
+    which fewer of its runs would hold no chip; where a window is too
+    sparse, the whole profile's β stands in. A β under which more than
+    :data:`MAX_BIAS_EMPTY_RUNS` of the runs would hold no chip is no
+    square-wave bias at all, and is taken as 0.
 
     Returns
     -------
     ndarray of float64, shape (m,)
-        β of each run, in (−1.5, 1.5); zeros when there are too few runs
-        to tell.
+        β of each run, in (−1, 1); zeros when there are too few runs to
+        tell.
     """
     values = runs.values
     beta = np.zeros(values.size)
@@ -166,20 +167,58 @@ def edge_bias_chips(runs: Runs, rows_per_chip: float, min_runs: int = 8, window_
     if on.sum() + off.sum() < min_runs or not on.any() or not off.any():
         return beta
     phasor = np.where(on, np.exp(2j * np.pi * chips), np.where(off, np.exp(-2j * np.pi * chips), 0.0))
-    overall = float((np.angle(phasor.sum()) / (2 * np.pi)) % 1.0)
-    # The alias under which the short runs (a low percentile, robust to
-    # noise glitches) of both levels still round to at least one chip.
-    short_on, short_off = percentile(chips[on], 10.0), percentile(chips[off], 10.0)
-    aliases = [c for c in (overall, overall - 1.0) if np.rint(short_on - c) >= 1 and np.rint(short_off + c) >= 1]
-    if not aliases:
-        return beta
-    overall = aliases[0]
-    kernel = np.ones(min(window_runs, values.size))
+    # Under a bias b an ON run holds no chip when b > chips − ½, an OFF run
+    # when b < ½ − chips.
+    ceiling = np.where(on, chips - 0.5, np.inf)
+    floor = np.where(off, 0.5 - chips, -np.inf)
+    total = phasor.sum(keepdims=True)
+    seen = np.count_nonzero(inner, keepdims=True)
+    overall = _least_empty_alias(total, seen, ceiling[None, :], floor[None, :], np.zeros(1))[0]
+    width = min(window_runs, values.size)
+    kernel = np.ones(width)
     local = np.convolve(phasor.real, kernel, "same") + 1j * np.convolve(phasor.imag, kernel, "same")
     counts = np.convolve(inner.astype(float), kernel, "same")
-    phase = np.angle(local) / (2 * np.pi)
-    nearest = phase + np.rint(overall - phase)
-    return np.where(counts >= 0.5 * kernel.size, nearest, overall)
+    # The runs of each window, aligned as np.convolve's "same" centres them.
+    pad = np.arange(values.size)[:, None] + np.arange(width)[None, :] - width // 2
+    outside = (pad < 0) | (pad >= values.size)
+    pad = np.clip(pad, 0, values.size - 1)
+    beta = _least_empty_alias(local, counts, np.where(outside, np.inf, ceiling[pad]),
+                              np.where(outside, -np.inf, floor[pad]), np.full(values.size, overall))
+    return np.where(counts >= 0.5 * width, beta, overall)
+
+
+# A bias estimate under which more than this fraction of the runs it corrects
+# would hold no whole chip does not describe them (noise, not saturation).
+MAX_BIAS_EMPTY_RUNS = 0.15
+# Nor does one from runs whose fractional lengths scatter: the mean phasor of
+# runs biased alike is near 1 (0.9 for edges jittered by a sixth of a chip),
+# of random lengths about 1/√n (0.26 for a window's 15 runs), of two equal
+# halves biased 0 and 0.6 chip 0.31.
+MIN_BIAS_COHERENCE = 0.5
+
+
+def _least_empty_alias(phasor_sum: np.ndarray, runs_seen: np.ndarray, ceiling: np.ndarray, floor: np.ndarray,
+                       prior: np.ndarray) -> np.ndarray:
+    """Per window of runs, β from the sum of its runs' phasors: the alias that leaves the fewest runs without a chip.
+
+    Of the two aliases (the phase in [0, 1) chips, and it less 1), a
+    corrected run (ON k + β − β, OFF k − β + β) must round to at least one
+    chip: an ON run fails when β exceeds its ``ceiling``, an OFF run when β
+    is below its ``floor`` (windows × runs, ±inf where there is no run).
+    Ties go to the alias nearest ``prior``. A window whose phasors scatter
+    (:data:`MIN_BIAS_COHERENCE`), or whose best alias still empties more
+    than :data:`MAX_BIAS_EMPTY_RUNS` of its ``runs_seen`` runs, gives 0.
+    """
+    high = np.mod(np.angle(phasor_sum) / (2 * np.pi), 1.0)
+    aliases = np.stack([high, high - 1.0], axis=-1)
+    b = aliases[:, :, None]
+    misses = np.count_nonzero((b > ceiling[:, None, :]) | (b < floor[:, None, :]), axis=2)
+    closer = np.abs(aliases - prior[:, None])
+    pick = np.where(misses[:, 0] == misses[:, 1], closer[:, 1] < closer[:, 0], misses[:, 1] < misses[:, 0])
+    rows = np.arange(pick.size)
+    chosen, missed = aliases[rows, pick.astype(np.int64)], misses[rows, pick.astype(np.int64)]
+    fit = (missed <= MAX_BIAS_EMPTY_RUNS * runs_seen) & (np.abs(phasor_sum) >= MIN_BIAS_COHERENCE * np.maximum(runs_seen, 1))
+    return np.where(fit, chosen, 0.0)
 
 
 def correct_edge_bias(runs: Runs, beta_chips: np.ndarray, rows_per_chip: float) -> Runs:

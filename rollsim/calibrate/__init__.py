@@ -203,7 +203,8 @@ def format_calibration(result: dict) -> str:
     lines = [
         f"calibration of {result['source']}: {result['emissions']} emissions, {result['successes']} successes",
         f"MMBP ({m['method']}): M = {m['M']}, N = {m['N']}, {p_e_text(m, _number)}, "
-        f"mean ON slots per frame {m['mean_on_per_frame']:.3f}",
+        f"mean ON slots per frame {m['mean_on_per_frame']:.3f}"
+        + (f"; {m['off_successes']} read past the window's edge" if m.get("off_successes") else ""),
         f"Gilbert-Elliott (maximum likelihood): p = {_number(ge['p'])}, q = {_number(ge['q'])}, p_e = {_number(ge['p_e'])}",
     ]
     if mom is not None:

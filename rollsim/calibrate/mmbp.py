@@ -19,19 +19,30 @@ Two ways to place emissions on the cycle:
     where frame start times are known (rendered data): each emission's start
     is placed within its frame period, [0, T_f), so the camera's frame clock,
     not a slot count, sets the phase. This is the per-frame alignment that a
-    non-integer T_f / T_p needs. The ON set is the shortest arc of start
-    offsets covering every success. The emissions in it, per frame, are the
+    non-integer T_f / T_p needs. The ON set is an arc of start offsets:
+    the shortest covering every success, trimmed where that is likelier
+    (:func:`leak_trimmed_arc`). The emissions in it, per frame, are the
     fractional mean number of whole PHY-SDUs per frame (a capture window W
     admits starts over W − T_p, so about W / T_p − 1); M = round of it,
     C = round(T_f / T_p), N = C − M.
+
+    A real window's edge is soft: a PHY-SDU whose last chips are OFF is
+    read even when they fall past the LED's last row (they look like the
+    background). One such success at an offset no other frame reads would
+    stretch the covering arc for every frame and turn the emissions it adds
+    into failures, so the aligned fit lets emissions outside the arc
+    succeed at a rate of their own (a leak, ``off_successes``), and takes
+    the arc of greatest likelihood. Where nothing leaks, that is the
+    covering arc.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.special import xlogy
 from scipy.stats import beta
 
 
@@ -61,6 +72,9 @@ class MmbpFit:
     on_emissions, on_failures : int
         Emissions in ON slots and the failures among them.
     method : str
+    off_successes : int
+        Successes outside the ON slots (aligned fit only: reads past the
+        window's soft edge, :func:`leak_trimmed_arc`); 0 under the MMBP.
     """
 
     M: int
@@ -73,6 +87,7 @@ class MmbpFit:
     on_emissions: int
     on_failures: int
     method: str
+    off_successes: int = 0
 
     def as_dict(self) -> dict:
         return {
@@ -86,6 +101,7 @@ class MmbpFit:
             "on_emissions": self.on_emissions,
             "on_failures": self.on_failures,
             "method": self.method,
+            "off_successes": self.off_successes,
         }
 
 
@@ -201,6 +217,64 @@ def _shortest_covering_arc(occupied: np.ndarray) -> tuple[int, int]:
     return start, size - int(gaps[widest])
 
 
+# Success offsets, at each end of the covering arc, that the aligned fit may
+# trim as leaks: a soft edge, not a window of another size.
+MAX_TRIMMED_OFFSETS = 32
+
+
+def leak_trimmed_arc(index: np.ndarray, success: np.ndarray, size: int,
+                     max_trimmed: int = MAX_TRIMMED_OFFSETS) -> tuple[int, int, float]:
+    """The ON arc of greatest likelihood when emissions outside it may succeed too.
+
+    Inside the arc an emission succeeds with probability 1 − p_e, outside
+    with q (a leak); both are estimated. Candidate arcs start at one of the
+    first ``max_trimmed`` success offsets of the shortest covering arc
+    (:func:`_shortest_covering_arc`) and end at one of its last; ties go
+    to the longest, so with no leak the covering arc is returned.
+
+    Parameters
+    ----------
+    index : ndarray of int, shape (n,)
+        Each emission's slot on the circle, 0 … size − 1.
+    success : ndarray of bool, shape (n,)
+    size : int
+        Slots on the circle.
+    max_trimmed : int
+
+    Returns
+    -------
+    (int, int, float)
+        The arc's first slot and length, and its maximised log-likelihood
+        (both rates).
+    """
+    first, length = _shortest_covering_arc(np.bincount(index[success], minlength=size) > 0)
+    offset = np.sort((index - first) % size)
+    hits = np.sort((index[success] - first) % size)
+    marks = np.unique(hits)
+    starts, ends = marks[:max_trimmed], marks[-max_trimmed:]
+    start, end = (grid.ravel() for grid in np.meshgrid(starts, ends, indexing="ij"))
+    valid = start <= end
+    start, end = start[valid], end[valid]
+
+    def between(values):
+        return np.searchsorted(values, end, side="right") - np.searchsorted(values, start, side="left")
+
+    trials, wins = between(offset), between(hits)
+    outside, leaks = offset.size - trials, hits.size - wins
+    score = _bernoulli_logliks(trials - wins, trials) + _bernoulli_logliks(leaks, outside)
+    # Longest first, so that a tie keeps the wider arc.
+    order = np.lexsort((-(end - start), -np.round(score, 9)))
+    best = order[0]
+    return int((start[best] + first) % size), int(end[best] - start[best] + 1), float(score[best])
+
+
+def _bernoulli_logliks(count: np.ndarray, trials: np.ndarray) -> np.ndarray:
+    """:func:`bernoulli_loglik` of many (count, trials) pairs; 0 where trials is 0."""
+    count, trials = np.asarray(count, dtype=np.float64), np.asarray(trials, dtype=np.float64)
+    share = np.divide(count, trials, out=np.zeros_like(count), where=trials > 0)
+    return trials * (xlogy(share, share) + xlogy(1.0 - share, 1.0 - share))
+
+
 def _check_trace(success: np.ndarray) -> np.ndarray:
     success = np.asarray(success, dtype=bool)
     if success.size == 0:
@@ -268,18 +342,18 @@ def fit_mmbp_aligned(success, start_s, frame_starts_s, frame_period_s: float, sd
     # Offset of each start within the frame period it falls in.
     k = np.clip(np.searchsorted(frames, start_s, side="right") - 1, 0, frames.size - 1)
     offset = np.mod(start_s - frames[k], frame_period_s)
-    # Shortest circular arc of offsets covering every success, to the
-    # resolution of a thousandth of a PHY-SDU.
+    # The arc of offsets, to the resolution of a thousandth of a PHY-SDU.
     bins = max(1, int(math.ceil(frame_period_s / (sdu_duration_s * 1e-3))))
     index = np.minimum((offset / frame_period_s * bins).astype(np.int64), bins - 1)
-    first, length = _shortest_covering_arc(np.bincount(index[success], minlength=bins) > 0)
+    first, length, loglik = leak_trimmed_arc(index, success, bins)
     on = ((index - first) % bins) < length
     trials = int(on.sum())
-    failures = trials - int(success.sum())
+    failures = trials - int(np.count_nonzero(success & on))
     # The mean count is counted, not inferred from the arc's length: with a
     # rational T_f / T_p the starts visit only a few offsets, and the arc
     # between the extreme ones falls short of the true window.
     mean_on = trials / frames.size
     cycle = max(1, int(round(frame_period_s / sdu_duration_s)))
     M = min(cycle, int(round(mean_on)))
-    return _fit(M, cycle - M, failures, trials, first * frame_period_s / bins, mean_on, "aligned")
+    fit = _fit(M, cycle - M, failures, trials, first * frame_period_s / bins, mean_on, "aligned")
+    return replace(fit, loglik=loglik, off_successes=int(np.count_nonzero(success & ~on)))

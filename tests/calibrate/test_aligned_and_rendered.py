@@ -40,6 +40,24 @@ def test_aligned_fit_counts_whole_phy_sdus_per_frame(window_s, sdu_s, expected):
     assert fit.p_e_ci95[0] <= 0.01 <= fit.p_e_ci95[1]
 
 
+def test_a_read_past_the_window_edge_leaks_instead_of_widening_the_window():
+    """One emission just past the window, read (its last chips OFF, past the
+    LED's last row), must not turn every other frame's emission at that
+    offset into a failure (the covering arc counts 13 failures here)."""
+    period, sdu_s = 1 / 30, 7e-3
+    success, starts, frames, inside = windowed_trace(period, 29.711e-3, sdu_s, 0.5e-3, 300)
+    k = np.searchsorted(frames, starts, side="right") - 1
+    late = np.flatnonzero(~inside & (starts - frames[k] > 0.5e-3))
+    # The earliest start past the window's end, read once.
+    edge = late[np.argmin(starts[late] - frames[k[late]])]
+    success[edge] = True
+    fit = fit_mmbp_aligned(success, starts, frames, period, sdu_s)
+    assert (fit.M, fit.N, fit.on_failures, fit.off_successes) == (3, 2, 0, 1)
+    assert fit.on_emissions == inside.sum()
+    clean = fit_mmbp_aligned(success & inside, starts, frames, period, sdu_s)
+    assert (clean.on_emissions, clean.off_successes, clean.loglik) == (fit.on_emissions, 0, 0.0)
+
+
 @pytest.fixture(scope="module")
 def evaluated_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("cal") / "paper"

@@ -267,6 +267,19 @@ def test_saturated_stripes(on_dn):
     assert totals["false"] == 0
 
 
+def test_a_core_saturated_footprint_is_read_by_thresholding_alone():
+    """Saturation only in the footprint's middle (a bright core in a glare
+    halo, as paper-default's emitter): ON runs widen and OFF runs narrow
+    there by up to 0.6 chip, and not at all above and below. No one edge
+    bias fits the whole profile; a local one does. Without the exposure the
+    decoder has no second look, so every PHY-SDU is thresholding's."""
+    rows = np.arange(1080)
+    gain = 0.6 + 5.4 * np.exp(-(((rows - 540) / 220.0) ** 2))
+    totals = run_frames(8, seed=14, shape=(1080, 240), size=1000, on_dn=230, off_dn=10, noise_dn=3, row_gain=gain)
+    assert totals["interior_ok"] == totals["interior"] >= 20
+    assert totals["false"] == 0
+
+
 def test_two_leds_in_one_frame():
     a = synth_frame(make_transmitter(start_s=0.0042), shape=(1080, 1000), centre=(250, 540), size=420, background_dn=30)
     b = synth_frame(make_transmitter(start_s=0.0047, seed=2), shape=(1080, 1000), centre=(750, 540), size=420, background_dn=0)

@@ -160,3 +160,40 @@ def test_edge_bias_follows_a_drift_and_needs_runs():
     assert np.array_equal(np.rint(corrected.lengths / RPC), np.rint(runs.lengths / RPC))
     few = Runs(runs.bounds[:5], runs.values[:4])
     assert not np.any(edge_bias_chips(few, RPC))
+
+
+def test_edge_bias_is_found_in_a_saturated_core_between_unsaturated_rows():
+    # A footprint saturated only in its middle third: there ON runs look 0.6
+    # chip longer than they are and single OFF chips 0.4 long, while the
+    # rows above and below carry no bias. No one β fits the whole profile
+    # (its circular mean leaves the core's OFF runs or the rims' ON runs
+    # holding no chip); the windows must each take their own.
+    rng = np.random.default_rng(6)
+    chips = random_chips(600, rng)
+    runs, _ = biased_runs(chips, 0.0)
+    starts = np.concatenate([[0], np.flatnonzero(np.diff(chips)) + 1])
+    core = (starts[1:] > chips.size / 3) & (starts[1:] < 2 * chips.size / 3)
+    bounds = runs.bounds.copy()
+    bounds[1:-1] += np.where(runs.values[1:] == 1, -0.5, 0.5) * np.where(core, 0.6, 0.0) * RPC
+    saturated = Runs(bounds, runs.values)
+    measured = edge_bias_chips(saturated, RPC)
+    middle = (runs.bounds[:-1] > 0.4 * chips.size * RPC) & (runs.bounds[1:] < 0.6 * chips.size * RPC)
+    rims = (runs.bounds[1:] < 0.25 * chips.size * RPC) | (runs.bounds[:-1] > 0.75 * chips.size * RPC)
+    rims[[0, -1]] = False  # cut by the profile's ends: the whole profile's β stands in
+    assert measured[middle] == pytest.approx(np.full(middle.sum(), 0.6), abs=0.05)
+    assert measured[rims] == pytest.approx(np.zeros(rims.sum()), abs=0.05)
+    corrected = correct_edge_bias(saturated, measured, RPC)
+    wrong = np.rint(corrected.lengths / RPC) != np.rint(runs.lengths / RPC)
+    # Only runs in a window straddling the core's ends may be miscounted.
+    assert np.count_nonzero(wrong) <= 4
+
+
+def test_edge_bias_of_runs_that_fit_no_bias_is_zero():
+    # Noise runs of every length: their fractional lengths scatter, so
+    # (but for the odd window whose 15 runs line up by chance) nothing is
+    # corrected.
+    rng = np.random.default_rng(7)
+    lengths = rng.uniform(0.2, 2.0, 300) * RPC
+    bounds = np.concatenate([[-0.5], np.cumsum(lengths) - 0.5])
+    values = (np.arange(300) % 2).astype(np.int8)
+    assert np.count_nonzero(edge_bias_chips(Runs(bounds, values), RPC)) <= 6
