@@ -320,26 +320,44 @@ def _passed(found) -> int:
     return 0 if found is None else int(np.count_nonzero(found.check_ok))
 
 
-def _all_read(found) -> bool:
-    """Whether every candidate inside the LED's rows passed, and there is one."""
+# Chips by which a failed candidate must overlap a passed one to be taken as
+# a SYNC pattern matched inside it. PHY-SDUs never overlap, but a real
+# neighbour cut by the LED's first or last row is laid at the nominal pitch
+# from its one real edge and may be found a couple of chips off (2.2 on a
+# stress-strong-ambient frame, whose cut neighbour the second look reads).
+OVERLAP_CHIPS = 3
+
+
+def _all_read(found, pitch: float, sdu_chips: int) -> bool:
+    """Whether every candidate inside the LED's rows passed, and there is one.
+
+    A failed candidate overlapping a passed one by more than
+    :data:`OVERLAP_CHIPS` chips is a SYNC pattern matched in that PHY-SDU's
+    rows (or a cut one's beside it), not another PHY-SDU, and does not
+    count.
+    """
     if found is None or not found.check_ok.any():
         return False
-    return bool(np.all(found.check_ok | (found.status == TRUNCATED)))
+    passed = found.first_row[found.check_ok]
+    apart = np.min(np.abs(found.first_row[:, None] - passed[None, :]), axis=1)
+    inside = apart < (sdu_chips - OVERLAP_CHIPS) * pitch
+    return bool(np.all(found.check_ok | (found.status == TRUNCATED) | inside))
 
 
-def _worth_a_second_look(found, n_rows: int, sdu_rows: float) -> bool:
+def _worth_a_second_look(found, n_rows: int, pitch: float, sdu_chips: int) -> bool:
     """Whether thresholding left PHY-SDUs of a profile unread.
 
-    A profile too short for a whole PHY-SDU has none to read. Otherwise: a
-    candidate failed, or fewer passed than surely fit in its rows (⌊n/S⌋ − 1
+    A profile too short for a whole PHY-SDU (``sdu_chips`` chips of
+    ``pitch`` rows) has none to read. Otherwise: a candidate failed
+    (:func:`_all_read`), or fewer passed than surely fit in its rows (⌊n/S⌋ − 1
     for PHY-SDUs S rows long: weak stripes are erased, not failed), or one
     inside the profile's rows was cut by where thresholding stopped seeing
     the LED (a fading halo whose stripes sequence detection still reads).
     """
-    whole = int(n_rows // sdu_rows)
+    whole = int(n_rows // (sdu_chips * pitch))
     if whole < 1:
         return False
-    if not _all_read(found) or _passed(found) < whole - 1:
+    if not _all_read(found, pitch, sdu_chips) or _passed(found) < whole - 1:
         return True
     inside = (found.first_row >= -0.5) & (found.last_row <= n_rows - 0.5)
     return bool(np.any((found.status == TRUNCATED) & inside))
@@ -383,7 +401,7 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     if not long_exposure and runs is not None and levels is not None:
         found, span = _thresholded_candidates(runs, levels, pitch, phy)
     sdu_rows = phy.sdu_chips * pitch
-    second_look = exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), sdu_rows))
+    second_look = exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), pitch, phy.sdu_chips))
     measure_only = (measure_span and exposure_rows is not None and not second_look and found is not None
                     and span is not None and len(profile) >= sdu_rows)
     if second_look or measure_only:
