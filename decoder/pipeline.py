@@ -354,13 +354,25 @@ def _worth_a_second_look(found, n_rows: int, pitch: float, sdu_chips: int) -> bo
     inside the profile's rows was cut by where thresholding stopped seeing
     the LED (a fading halo whose stripes sequence detection still reads).
     """
-    whole = int(n_rows // (sdu_chips * pitch))
+    sdu_rows = sdu_chips * pitch
+    whole = int(n_rows // sdu_rows)
     if whole < 1:
         return False
     if not _all_read(found, pitch, sdu_chips) or _passed(found) < whole - 1:
         return True
-    inside = (found.first_row >= -0.5) & (found.last_row <= n_rows - 0.5)
-    return bool(np.any((found.status == TRUNCATED) & inside))
+    return _passed(found) < _slots_in_rows(found.first_row[found.check_ok], sdu_rows, n_rows, pitch)
+
+
+def _slots_in_rows(passed_first_rows: np.ndarray, sdu_rows: float, n_rows: int, pitch: float) -> int:
+    """Whole PHY-SDU slots in a profile of ``n_rows`` rows, on the grid of its passed PHY-SDUs.
+
+    PHY-SDUs follow each other every ``sdu_rows`` rows at least, so the
+    first passed one fixes the phase of the slots, and a slot reaching past
+    the profile's ends by no more than a chip (the run-edge tolerance)
+    counts.
+    """
+    phase = float(np.min(passed_first_rows)) % sdu_rows
+    return int(max(0, (n_rows + pitch - phase) // sdu_rows))
 
 
 def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, include_failed, include_truncated,
