@@ -350,9 +350,10 @@ def _worth_a_second_look(found, n_rows: int, pitch: float, sdu_chips: int) -> bo
     A profile too short for a whole PHY-SDU (``sdu_chips`` chips of
     ``pitch`` rows) has none to read. Otherwise: a candidate failed
     (:func:`_all_read`), or fewer passed than surely fit in its rows (⌊n/S⌋ − 1
-    for PHY-SDUs S rows long: weak stripes are erased, not failed), or one
-    inside the profile's rows was cut by where thresholding stopped seeing
-    the LED (a fading halo whose stripes sequence detection still reads).
+    for PHY-SDUs S rows long: weak stripes are erased, not failed), or than
+    whole slots fit on the grid the passed ones fix (:func:`_slots_in_rows`:
+    a fading halo where thresholding stops seeing the LED before sequence
+    detection does).
     """
     sdu_rows = sdu_chips * pitch
     whole = int(n_rows // sdu_rows)

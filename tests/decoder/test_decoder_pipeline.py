@@ -288,3 +288,40 @@ def test_two_leds_in_one_frame():
     assert {s.region for s in found} == {0, 1}
     for truth in (a.truth, b.truth):
         assert len(match(found, truth)["ok"]) == len(truth) >= 1
+
+
+def candidates(first_rows, statuses, sdu_rows=252.0):
+    from decoder.framing import SduCandidates
+    from decoder.records import STATUSES
+
+    first = np.asarray(first_rows, dtype=float)
+    return SduCandidates(first, first + sdu_rows, np.arange(first.size), np.zeros((first.size, PHY.payload_bits), np.uint8),
+                         np.array([STATUSES.index(s) for s in statuses]), np.ones(first.size))
+
+
+@pytest.mark.parametrize(
+    "first_rows, statuses, n_rows, expected",
+    [
+        # Every slot read: no second look.
+        ([10, 262, 514], ["ok", "ok", "ok"], 800, False),
+        # A failed candidate 4.2 chips into a passed one's rows: a SYNC
+        # matched inside it, no second look; 2.2 chips in, maybe a
+        # neighbour cut by the LED's first row: look.
+        ([250 - 233.0, 250], ["code_error", "ok"], 530, False),
+        ([250 - 242.0, 250], ["code_error", "ok"], 530, True),
+        # A failed candidate of its own: look.
+        ([10, 262, 514], ["ok", "code_error", "ok"], 800, True),
+        # Two passed, but three slots fit on their grid (a halo's first
+        # PHY-SDU before where thresholding saw the LED): look.
+        ([258, 510], ["ok", "ok"], 790, True),
+        ([258, 510], ["ok", "ok"], 740, False),
+        # Too short for a PHY-SDU.
+        ([], [], 200, False),
+    ],
+)
+def test_the_second_look_runs_where_thresholding_left_phy_sdus_unread(first_rows, statuses, n_rows, expected):
+    from decoder.pipeline import _worth_a_second_look
+
+    pitch = 4.5
+    assert PHY.sdu_chips * pitch == 252.0
+    assert _worth_a_second_look(candidates(first_rows, statuses), n_rows, pitch, PHY.sdu_chips) is expected
