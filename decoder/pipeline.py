@@ -373,7 +373,8 @@ def _slots_in_rows(passed_first_rows: np.ndarray, sdu_rows: float, n_rows: int, 
     counts.
     """
     phase = float(np.min(passed_first_rows)) % sdu_rows
-    return int(max(0, (n_rows + pitch - phase) // sdu_rows))
+    first = phase - sdu_rows * ((phase + pitch) // sdu_rows)   # the earliest slot start ≥ −pitch
+    return int(max(0, (n_rows + pitch - first) // sdu_rows))
 
 
 def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, include_failed, include_truncated,

@@ -145,9 +145,11 @@ def edge_bias_chips(runs: Runs, rows_per_chip: float, min_runs: int = 8, window_
     with a real edge on both sides, over a sliding window of
     ``window_runs`` runs, so that it follows the saturation along the
     profile. Of its two aliases (β and β − 1) a window takes the one under
-    which fewer of its runs would hold no chip; where a window is too
-    sparse, the whole profile's β stands in. A β under which more than
-    :data:`MAX_BIAS_EMPTY_RUNS` of the runs would hold no chip is no
+    which fewer of its runs would hold no chip; a window too sparse, or
+    whose runs' phases scatter too much to tell a bias
+    (:data:`MIN_BIAS_RAYLEIGH`), takes the nearest window's that could, and
+    the whole profile's β stands in where none could. A β under which more
+    than :data:`MAX_BIAS_EMPTY_RUNS` of the runs would hold no chip is no
     square-wave bias at all, and is taken as 0.
 
     Returns
@@ -173,7 +175,8 @@ def edge_bias_chips(runs: Runs, rows_per_chip: float, min_runs: int = 8, window_
     floor = np.where(off, 0.5 - chips, -np.inf)
     total = phasor.sum(keepdims=True)
     seen = np.count_nonzero(inner, keepdims=True)
-    overall = _least_empty_alias(total, seen, ceiling[None, :], floor[None, :], np.zeros(1))[0]
+    beta_all, coherent_all = _least_empty_alias(total, seen, ceiling[None, :], floor[None, :], np.zeros(1))
+    overall = float(beta_all[0]) if coherent_all[0] else 0.0
     width = min(window_runs, values.size)
     kernel = np.ones(width)
     local = np.convolve(phasor.real, kernel, "same") + 1j * np.convolve(phasor.imag, kernel, "same")
@@ -182,32 +185,56 @@ def edge_bias_chips(runs: Runs, rows_per_chip: float, min_runs: int = 8, window_
     pad = np.arange(values.size)[:, None] + np.arange(width)[None, :] - width // 2
     outside = (pad < 0) | (pad >= values.size)
     pad = np.clip(pad, 0, values.size - 1)
-    beta = _least_empty_alias(local, counts, np.where(outside, np.inf, ceiling[pad]),
-                              np.where(outside, -np.inf, floor[pad]), np.full(values.size, overall))
-    return np.where(counts >= 0.5 * width, beta, overall)
+    beta, coherent = _least_empty_alias(local, counts, np.where(outside, np.inf, ceiling[pad]),
+                                        np.where(outside, -np.inf, floor[pad]), np.full(values.size, overall))
+    known = coherent & (counts >= 0.5 * width)
+    if not known.any():
+        return np.full(values.size, overall)
+    # A window too sparse or too scattered to tell its own β takes the
+    # nearest one that could: across a saturated core's edge, the core's or
+    # the halo's, rather than a mean of both.
+    return beta[_nearest_true(known)]
+
+
+def _nearest_true(mask: np.ndarray) -> np.ndarray:
+    """For every index, the nearest index where ``mask`` is True (ties to the left); ``mask`` has one."""
+    index = np.arange(mask.size)
+    left = np.maximum.accumulate(np.where(mask, index, -1))
+    right = np.minimum.accumulate(np.where(mask, index, mask.size)[::-1])[::-1]
+    use_left = (right >= mask.size) | ((left >= 0) & (index - left <= right - index))
+    return np.where(use_left, left, right)
 
 
 # A bias estimate under which more than this fraction of the runs it corrects
 # would hold no whole chip does not describe them (noise, not saturation).
 MAX_BIAS_EMPTY_RUNS = 0.15
-# Nor does one from runs whose fractional lengths scatter: the mean phasor of
-# runs biased alike is near 1 (0.9 for edges jittered by a sixth of a chip),
-# of random lengths about 1/√n (0.26 for a window's 15 runs), of two equal
-# halves biased 0 and 0.6 chip 0.31.
-MIN_BIAS_COHERENCE = 0.5
+# Nor can one be told from runs whose fractional lengths scatter. Rayleigh's
+# test: for n runs of random phase, n·R² (R the length of their mean phasor)
+# exceeds K with probability e^−K, so below K = 6 (0.25 %) the runs are not
+# known to share a bias. Runs biased alike whose lengths jitter by σ chips
+# have R ≈ exp(−2π²σ²): 0.61 at σ = 0.16 (0.7 row at 4.5 rows per chip), so
+# a window of 15 runs (n·R² = 5.6) falls back on the whole profile's β,
+# while the whole profile's hundreds of runs pass easily.
+MIN_BIAS_RAYLEIGH = 6.0
 
 
 def _least_empty_alias(phasor_sum: np.ndarray, runs_seen: np.ndarray, ceiling: np.ndarray, floor: np.ndarray,
-                       prior: np.ndarray) -> np.ndarray:
+                       prior: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per window of runs, β from the sum of its runs' phasors: the alias that leaves the fewest runs without a chip.
 
     Of the two aliases (the phase in [0, 1) chips, and it less 1), a
     corrected run (ON k + β − β, OFF k − β + β) must round to at least one
     chip: an ON run fails when β exceeds its ``ceiling``, an OFF run when β
     is below its ``floor`` (windows × runs, ±inf where there is no run).
-    Ties go to the alias nearest ``prior``. A window whose phasors scatter
-    (:data:`MIN_BIAS_COHERENCE`), or whose best alias still empties more
-    than :data:`MAX_BIAS_EMPTY_RUNS` of its ``runs_seen`` runs, gives 0.
+    Ties go to the alias nearest ``prior``. A best alias that still empties
+    more than :data:`MAX_BIAS_EMPTY_RUNS` of the window's ``runs_seen`` runs
+    gives 0.
+
+    Returns
+    -------
+    (ndarray, ndarray of bool)
+        β per window, and whether the window's phasors are coherent enough
+        to tell it (:data:`MIN_BIAS_RAYLEIGH`).
     """
     high = np.mod(np.angle(phasor_sum) / (2 * np.pi), 1.0)
     aliases = np.stack([high, high - 1.0], axis=-1)
@@ -217,8 +244,9 @@ def _least_empty_alias(phasor_sum: np.ndarray, runs_seen: np.ndarray, ceiling: n
     pick = np.where(misses[:, 0] == misses[:, 1], closer[:, 1] < closer[:, 0], misses[:, 1] < misses[:, 0])
     rows = np.arange(pick.size)
     chosen, missed = aliases[rows, pick.astype(np.int64)], misses[rows, pick.astype(np.int64)]
-    fit = (missed <= MAX_BIAS_EMPTY_RUNS * runs_seen) & (np.abs(phasor_sum) >= MIN_BIAS_COHERENCE * np.maximum(runs_seen, 1))
-    return np.where(fit, chosen, 0.0)
+    coherent = np.abs(phasor_sum) ** 2 >= MIN_BIAS_RAYLEIGH * np.maximum(runs_seen, 1)
+    fit = missed <= MAX_BIAS_EMPTY_RUNS * runs_seen
+    return np.where(fit, chosen, 0.0), coherent
 
 
 def correct_edge_bias(runs: Runs, beta_chips: np.ndarray, rows_per_chip: float) -> Runs:

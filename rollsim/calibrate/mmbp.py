@@ -227,7 +227,7 @@ def leak_trimmed_arc(index: np.ndarray, success: np.ndarray, size: int,
     """The ON arc of greatest likelihood when emissions outside it may succeed too.
 
     Inside the arc an emission succeeds with probability 1 − p_e, outside
-    with q (a leak); both are estimated. Candidate arcs start at one of the
+    with q < 1 − p_e (a leak); both are estimated. Candidate arcs start at one of the
     first ``max_trimmed`` success offsets of the shortest covering arc
     (:func:`_shortest_covering_arc`) and end at one of its last; ties go
     to the longest, so with no leak the covering arc is returned.
@@ -262,6 +262,9 @@ def leak_trimmed_arc(index: np.ndarray, success: np.ndarray, size: int,
     trials, wins = between(offset), between(hits)
     outside, leaks = offset.size - trials, hits.size - wins
     score = _bernoulli_logliks(trials - wins, trials) + _bernoulli_logliks(leaks, outside)
+    # A leak succeeds less often than the arc does (else the arc is the
+    # wrong part of the circle); the covering arc has no leak.
+    score = np.where((leaks == 0) | (leaks * trials < wins * outside), score, -np.inf)
     # Longest first, so that a tie keeps the wider arc.
     order = np.lexsort((-(end - start), -np.round(score, 9)))
     best = order[0]

@@ -307,14 +307,16 @@ def candidates(first_rows, statuses, sdu_rows=252.0):
         # A failed candidate 4.2 chips into a passed one's rows: a SYNC
         # matched inside it, no second look; 2.2 chips in, maybe a
         # neighbour cut by the LED's first row: look.
-        ([250 - 233.0, 250], ["code_error", "ok"], 530, False),
-        ([250 - 242.0, 250], ["code_error", "ok"], 530, True),
+        ([240 - 233.0, 240], ["code_error", "ok"], 530, False),
+        ([240 - 242.0, 240], ["code_error", "ok"], 530, True),
         # A failed candidate of its own: look.
         ([10, 262, 514], ["ok", "code_error", "ok"], 800, True),
         # Two passed, but three slots fit on their grid (a halo's first
         # PHY-SDU before where thresholding saw the LED): look.
         ([258, 510], ["ok", "ok"], 790, True),
         ([258, 510], ["ok", "ok"], 740, False),
+        # A slot that starts less than a chip before the profile counts.
+        ([250, 502], ["ok", "ok"], 760, True),
         # Too short for a PHY-SDU.
         ([], [], 200, False),
     ],
