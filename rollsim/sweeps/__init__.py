@@ -172,11 +172,17 @@ def _compute(client, spec: SweepSpec, resolved, todo: list, directory, progress,
         # worth overlapping with them. Longer stages would only lose a
         # core's second to it.
         _warm_up_writers()
-    for batch, result in tasks:
-        rows = _error_rows(batch, result) if isinstance(result, BaseException) else cast(list, result)
-        directory.append(rows)
-        if progress is not None:
-            progress(len(rows))
+    try:
+        for batch, result in tasks:
+            rows = _error_rows(batch, result) if isinstance(result, BaseException) else cast(list, result)
+            directory.append(rows)
+            if progress is not None:
+                progress(len(rows))
+    finally:
+        # Cancel what is left while the client still runs: left to the
+        # garbage collector (a signal's traceback holds the generator), the
+        # cancel would meet a closed event loop and print its traceback.
+        tasks.close()
 
 
 def _warm_up_writers() -> None:

@@ -18,7 +18,7 @@ import contextlib
 import importlib.util
 import logging
 import math
-from typing import Callable, Iterator, Optional
+from typing import Callable, Generator, Optional
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
@@ -157,14 +157,14 @@ def batch_size(stage: str, cells: int, workers: int) -> int:
     return min(by_time, by_balance)
 
 
-def run_tasks(client, function: Callable, batches: list, *args) -> Iterator[tuple[list, object]]:
-    """Submit ``function(batch, *args)`` for every batch now; an iterator of
+def run_tasks(client, function: Callable, batches: list, *args) -> Generator[tuple[list, object], None, None]:
+    """Submit ``function(batch, *args)`` for every batch now; a generator of
     ``(batch, result or exception)`` as they finish."""
     futures = {client.submit(function, batch, *args, pure=False): batch for batch in batches}
     return _finished(client, futures)
 
 
-def _finished(client, futures: dict) -> Iterator[tuple[list, object]]:
+def _finished(client, futures: dict) -> Generator[tuple[list, object], None, None]:
     from distributed import as_completed
 
     try:
@@ -175,7 +175,9 @@ def _finished(client, futures: dict) -> Iterator[tuple[list, object]]:
             except Exception as exc:  # the worker died, or lost the task
                 yield batch, exc
     finally:
-        client.cancel(list(futures))
+        # Nothing is left to cancel once the client has closed.
+        with contextlib.suppress(Exception):
+            client.cancel(list(futures))
 
 
 def worker_count(client) -> int:
