@@ -348,18 +348,17 @@ def _worth_a_second_look(found, n_rows: int, pitch: float, sdu_chips: int) -> bo
     """Whether thresholding left PHY-SDUs of a profile unread.
 
     A profile too short for a whole PHY-SDU (``sdu_chips`` chips of
-    ``pitch`` rows) has none to read. Otherwise: a candidate failed
-    (:func:`_all_read`), or fewer passed than surely fit in its rows (⌊n/S⌋ − 1
-    for PHY-SDUs S rows long: weak stripes are erased, not failed), or than
-    whole slots fit on the grid the passed ones fix (:func:`_slots_in_rows`:
-    a fading halo where thresholding stops seeing the LED before sequence
-    detection does).
+    ``pitch`` rows) has none to read. Otherwise: a candidate failed or none
+    passed (:func:`_all_read`), or fewer passed than whole slots fit on the
+    grid the passed ones fix (:func:`_slots_in_rows`; never fewer than
+    ⌊n/S⌋ − 1 for PHY-SDUs S rows long: weak stripes are erased, not
+    failed, and a fading halo ends where thresholding stops seeing the LED
+    before sequence detection does).
     """
     sdu_rows = sdu_chips * pitch
-    whole = int(n_rows // sdu_rows)
-    if whole < 1:
+    if n_rows < sdu_rows:
         return False
-    if not _all_read(found, pitch, sdu_chips) or _passed(found) < whole - 1:
+    if not _all_read(found, pitch, sdu_chips):
         return True
     return _passed(found) < _slots_in_rows(found.first_row[found.check_ok], sdu_rows, n_rows, pitch)
 
@@ -416,8 +415,8 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
         found, span = _thresholded_candidates(runs, levels, pitch, phy)
     sdu_rows = phy.sdu_chips * pitch
     second_look = exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), pitch, phy.sdu_chips))
-    measure_only = (measure_span and exposure_rows is not None and not second_look and found is not None
-                    and span is not None and len(profile) >= sdu_rows)
+    # (Not a second look on a profile holding a whole PHY-SDU: thresholding read every one.)
+    measure_only = measure_span and exposure_rows is not None and not second_look and len(profile) >= sdu_rows
     if second_look or measure_only:
         # A second look, by sequence detection over the known smear: it
         # reads what thresholding cannot (weak stripes, a long exposure);
