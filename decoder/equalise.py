@@ -47,6 +47,7 @@ from scipy.ndimage import maximum_filter1d, uniform_filter1d
 from rollsim.protocol import PhyFormat
 from rollsim.protocol.linecode import encode
 
+from decoder.order_stats import percentiles
 from decoder.timing import ChipStream
 
 # Phases of the chip grid tried per chip.
@@ -507,6 +508,67 @@ def detect_chips(values: np.ndarray, phy: PhyFormat, rows_per_chip: float, expos
         levels = fit_levels(values, smeared(chips, last_chip, weights), basis, inv_var, ceiling)
         _, chips = _best_grid(values, levels, inv_var, [grid], [(last_chip, weights)])
     return _equalised(values, chips, grid, (last_chip, weights), levels, exposure_rows, min_modulation_sigma)
+
+
+# The rows at a profile's ends searched for a level step (chips, and at
+# least STEP_SEARCH_MIN_ROWS rows: a region keeps one block row past its
+# footprint, at most 8 px), and the stripes' range it is measured against
+# (chips just inside).
+STEP_SEARCH_CHIPS = 2.0
+STEP_SEARCH_MIN_ROWS = 8
+STEP_REFERENCE_CHIPS = 24.0
+# A row is past a step when it lies this many times the reference's 5–95 %
+# spread outside that spread: stripes never leave their own range, noise
+# that far out is a 5-sigma event or rarer (the spread is at least 3.3 noise
+# sigmas), and a trend does not move a level that much within two chips.
+STEP_SPREADS = 2.0
+
+
+def stepped_ends(values: np.ndarray, rows_per_chip: float) -> tuple[int, int]:
+    """The rows of a profile inside the level steps at its ends, as ``(first, stop)``.
+
+    A region keeps a block row past its footprint's top and bottom, where a
+    straddling block may hold chips. When the LED's face is darker (or
+    brighter) than what surrounds it, those rows sit far off the LED's
+    levels: an LED 17 mm across at 650 lx reads 25 DN inside its disk and
+    60 DN outside, against a stripe gap of 1.6 DN at 10 dB. The detector's
+    levels (smooth splines) cannot follow such a step, and its squared
+    residuals (60 noise sigmas) outweigh all the stripes in choosing the
+    grid's phase. Such rows are not the LED's: only rows within
+    :data:`STEP_SEARCH_CHIPS` chips of each end are looked at, and those up
+    to the innermost one lying :data:`STEP_SPREADS` spreads outside the
+    stripes' range next to it (:data:`STEP_REFERENCE_CHIPS` chips, 5 to
+    95 %) are cut. An LED whose OFF level is the background's has no step
+    and loses no row.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n,)
+        Row means (any units).
+    rows_per_chip : float
+        Chip pitch, rows.
+
+    Returns
+    -------
+    (int, int)
+        ``values[first:stop]`` is the LED's; ``(0, n)`` when no end steps.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    n = values.size
+    search = int(max(STEP_SEARCH_MIN_ROWS, np.ceil(STEP_SEARCH_CHIPS * rows_per_chip)))
+    reference = int(np.ceil(STEP_REFERENCE_CHIPS * rows_per_chip))
+    if n < 2 * search + reference:
+        return 0, n
+
+    def cut(ends: np.ndarray, inside: np.ndarray) -> int:
+        low, high = percentiles(inside, (5.0, 95.0))
+        margin = STEP_SPREADS * (high - low)
+        outside = np.flatnonzero((ends < low - margin) | (ends > high + margin))
+        return int(outside[-1]) + 1 if outside.size else 0
+
+    first = cut(values[:search], values[search : search + reference])
+    stop = n - cut(values[::-1][:search], values[::-1][search : search + reference])
+    return first, stop
 
 
 def pitch_candidates(grid: ChipGrid, n_rows: int, exposure_rows: float) -> list[ChipGrid]:

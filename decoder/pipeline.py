@@ -9,7 +9,7 @@ threshold, erasures), :mod:`decoder.timing` (clock recovery) and
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any, Iterable, Iterator
 
@@ -21,7 +21,8 @@ from rollsim.protocol.linecode import chips_per_symbol
 from rollsim.protocol.frames import frame_index_from_name
 
 from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
-from decoder.equalise import MAX_EXPOSURE_CHIPS, MIN_MODULATION_SIGMA, WEAK_MODULATION_SIGMA, detect_chips
+from decoder.equalise import (MAX_EXPOSURE_CHIPS, MIN_MODULATION_SIGMA, WEAK_MODULATION_SIGMA, detect_chips,
+                              stepped_ends)
 from decoder.framing import OK, TRUNCATED, SduCandidates, decode_chip_stream, merge_readings
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.order_stats import median, percentiles
@@ -211,6 +212,9 @@ def equalised_chips(profile: RowProfile, phy: PhyFormat, rows_per_chip: float, e
     Rows whose stripes stand out of the noise by
     :data:`~decoder.equalise.WEAK_MODULATION_SIGMA` are read; those that
     stand out by :data:`~decoder.equalise.MIN_MODULATION_SIGMA` are sure.
+    Rows past a level step at the profile's ends
+    (:func:`~decoder.equalise.stepped_ends`: the region's margin over a
+    face darker or brighter than its surroundings) are not looked at.
 
     Returns
     -------
@@ -218,9 +222,12 @@ def equalised_chips(profile: RowProfile, phy: PhyFormat, rows_per_chip: float, e
         The span (profile rows) is None when no chip is surely ON; the
         last, per profile row, whether it is sure.
     """
-    found = detect_chips(profile.values, phy, rows_per_chip, exposure_rows, min_modulation_sigma=WEAK_MODULATION_SIGMA)
-    sure = found.modulation > MIN_MODULATION_SIGMA
-    chips = found.chips
+    first, stop = stepped_ends(profile.values, rows_per_chip)
+    found = detect_chips(profile.values[first:stop], phy, rows_per_chip, exposure_rows,
+                         min_modulation_sigma=WEAK_MODULATION_SIGMA)
+    sure = np.zeros(len(profile), dtype=bool)
+    sure[first:stop] = found.modulation > MIN_MODULATION_SIGMA
+    chips = replace(found.chips, start=found.chips.start + first, end=found.chips.end + first)
     on = np.flatnonzero((chips.values == 1) & (chips.confidence >= CONFIDENT_ON_CHIP))
     if on.size == 0:
         return chips, None, sure

@@ -175,6 +175,25 @@ def test_stripe_band_weights_approach_the_matched_filter(row_snr_db):
     assert np.median(weights[:, amplitude == 0].sum(axis=1)) < 0.1
 
 
+def test_band_weights_change_no_faster_than_their_window():
+    # Known answer: weights switching from band 0 to band 1 at row 100
+    # become a linear ramp over the window (11 rows), each row summing to 1;
+    # rows far from any weight stay all 0. The weighted profile of bands
+    # 35 DN apart (a disk's face and the background beside it) then moves
+    # by 35/11 DN a row, not 35 at once.
+    from decoder.profile import smooth_weights
+
+    weights = np.zeros((300, 3))
+    weights[:100, 0] = 1.0
+    weights[100:200, 1] = 1.0
+    smooth = smooth_weights(weights, 11)
+    assert np.all(smooth >= 0)
+    assert np.allclose(smooth[:200].sum(axis=1), 1.0) and np.all(smooth[206:] == 0)
+    assert np.allclose(smooth[95:106, 1], (np.arange(95, 106) - 94) / 11)
+    level = smooth[:200] @ np.array([25.0, 60.0, 0.0])
+    assert np.max(np.abs(np.diff(level))) == pytest.approx(35.0 / 11)
+
+
 def test_stripe_band_weights_of_flat_bands_are_zero():
     # No stripes, no noise: nothing to weigh, and no NaN.
     from decoder.profile import stripe_band_weights
