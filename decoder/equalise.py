@@ -512,15 +512,17 @@ def detect_chips(values: np.ndarray, phy: PhyFormat, rows_per_chip: float, expos
 
 # The rows at a profile's ends searched for a level step (chips, and at
 # least STEP_SEARCH_MIN_ROWS rows: a region keeps one block row past its
-# footprint, at most 8 px), and the stripes' range it is measured against
-# (chips just inside).
+# footprint, 4 px by default, and a block straddling the edge), and the
+# stripes' range it is measured against (chips just inside).
 STEP_SEARCH_CHIPS = 2.0
 STEP_SEARCH_MIN_ROWS = 8
 STEP_REFERENCE_CHIPS = 24.0
 # A row is past a step when it lies this many times the reference's 5–95 %
-# spread outside that spread: stripes never leave their own range, noise
-# that far out is a 5-sigma event or rarer (the spread is at least 3.3 noise
-# sigmas), and a trend does not move a level that much within two chips.
+# spread outside that spread: stripes never leave their own range; noise
+# alone puts the 5th and 95th percentiles 1.6 sigmas out and the spread at
+# 3.3, so a noise row is cut only 8.2 sigmas from its mean (stripes widen
+# the spread further); and a trend does not move a level that much within
+# two chips.
 STEP_SPREADS = 2.0
 
 
