@@ -286,11 +286,16 @@ def stripe_band_weights(bands: np.ndarray, rows_per_chip: float, variance_floor:
         square = correlation * correlation
         relative = np.divide(spread, square, out=np.full_like(square, np.inf), where=square > 0)
         raw = np.clip(correlation, 0.0, None) * np.clip(1.0 - relative, 0.0, None)
-        row_total = raw.sum(axis=1, keepdims=True)
-        if not np.any(row_total > 0):
+        if not np.any(raw > 0):
             return np.zeros(bands.shape)
-        weights = np.divide(raw, row_total, out=np.zeros_like(raw), where=row_total > 0)
+        weights = rows_summing_to_one(raw)
     return smooth_weights(weights, windows[0][0])
+
+
+def rows_summing_to_one(weights: np.ndarray) -> np.ndarray:
+    """Non-negative weights (n_rows, n_bands) scaled so that each row sums to 1; rows of zeros stay 0."""
+    total = weights.sum(axis=1, keepdims=True)
+    return np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
 
 
 def smooth_weights(weights: np.ndarray, window_rows: int) -> np.ndarray:
@@ -307,9 +312,7 @@ def smooth_weights(weights: np.ndarray, window_rows: int) -> np.ndarray:
     (both with the ends' level steps cut, :func:`decoder.equalise.stepped_ends`).
     """
     # (A running mean of zeros may come out a rounding error below 0.)
-    smooth = np.maximum(uniform_filter1d(weights, int(window_rows), axis=0, mode="nearest"), 0.0)
-    total = smooth.sum(axis=1, keepdims=True)
-    return np.divide(smooth, total, out=np.zeros_like(smooth), where=total > 0)
+    return rows_summing_to_one(np.maximum(uniform_filter1d(weights, int(window_rows), axis=0, mode="nearest"), 0.0))
 
 
 def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: float,
