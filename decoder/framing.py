@@ -7,7 +7,9 @@ chips: its first chip is R + 1 chips before the OFF chip that closes the
 run. Coded data never holds R + 1 equal chips, so clean data has one SYNC
 per PHY-SDU. The chips after the SYNC go to
 :meth:`rollsim.protocol.PhyFormat.decode_coded`: an invalid Manchester pair
-or 4B6B word is a code error, never a guess.
+or 4B6B word is a code error, never a guess. A PHY-SDU whose SYNC lost a
+chip is still looked for where its neighbours put it: PHY-SDUs are sent
+back to back.
 
 All candidates of a chip stream are decoded at once.
 """
@@ -93,6 +95,11 @@ def find_sync_starts(chip_values: np.ndarray, phy: PhyFormat) -> np.ndarray:
 def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float, float] | None = None) -> SduCandidates:
     """Find and decode every PHY-SDU candidate of a chip stream.
 
+    Candidates start at every SYNC (:func:`find_sync_starts`), and at the
+    chips one PHY-SDU before and after each candidate that passed its check
+    (:func:`neighbour_starts`), where a chip error in the SYNC hides a
+    PHY-SDU between two read ones; those are kept only if they pass.
+
     Parameters
     ----------
     chips : ChipStream
@@ -104,9 +111,70 @@ def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float,
     Returns
     -------
     SduCandidates
-        Candidates in stream order, including truncated ones.
+        Candidates in row order, including truncated ones.
     """
     starts = find_sync_starts(chips.values, phy)
+    found = decode_at(chips, phy, starts, row_span)
+    guesses = neighbour_starts(starts[found.check_ok], starts, len(chips), phy.sdu_chips)
+    hidden = decode_at(chips, phy, guesses, row_span)
+    hidden = hidden.select(hidden.check_ok)
+    if len(hidden) == 0:
+        return found
+    merged = SduCandidates(*(np.concatenate([getattr(found, name), getattr(hidden, name)]) for name in _FIELDS))
+    return merged.select(np.argsort(merged.first_row, kind="stable"))
+
+
+def neighbour_starts(passed: np.ndarray, starts: np.ndarray, n_chips: int, sdu_chips: int) -> np.ndarray:
+    """Chip indices one PHY-SDU before and after each passed candidate, where no SYNC was found.
+
+    The transmitter sends PHY-SDUs back to back, so a PHY-SDU whose SYNC
+    lost a chip to noise still starts exactly ``sdu_chips`` after its
+    predecessor (and before its successor). A guess within
+    :data:`NEIGHBOUR_TOLERANCE_CHIPS` of a SYNC found is that SYNC's
+    candidate already; one running past the stream is not made.
+
+    Parameters
+    ----------
+    passed : ndarray of int64
+        First chips of the candidates that passed their check.
+    starts : ndarray of int64
+        First chips of every SYNC found.
+    n_chips, sdu_chips : int
+        Chips in the stream and in a PHY-SDU.
+
+    Returns
+    -------
+    ndarray of int64
+        Sorted, unique.
+    """
+    guesses = np.unique(np.concatenate([passed - sdu_chips, passed + sdu_chips]))
+    guesses = guesses[(guesses >= 0) & (guesses + sdu_chips <= n_chips)]
+    if guesses.size == 0 or starts.size == 0:
+        return guesses
+    nearest = np.min(np.abs(guesses[:, None] - starts[None, :]), axis=1)
+    return guesses[nearest > NEIGHBOUR_TOLERANCE_CHIPS]
+
+
+# A guessed start this close to a SYNC found (chips) is that SYNC's candidate.
+NEIGHBOUR_TOLERANCE_CHIPS = 1
+
+
+def decode_at(chips: ChipStream, phy: PhyFormat, starts: np.ndarray, row_span: tuple[float, float] | None) -> SduCandidates:
+    """Decode the PHY-SDU candidates starting at the given chips (SYNC included), in that order.
+
+    Parameters
+    ----------
+    chips : ChipStream
+    phy : PhyFormat
+    starts : ndarray of int64
+        First chip (the SYNC's) of each candidate; >= 0.
+    row_span : (float, float) or None
+        As :func:`decode_chip_stream`.
+
+    Returns
+    -------
+    SduCandidates
+    """
     n_chips = phy.sdu_chips
     n = starts.size
     payload = np.zeros((n, phy.payload_bits), dtype=np.uint8)
@@ -128,7 +196,8 @@ def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float,
     if row_span is not None:
         complete &= (first_row >= row_span[0]) & (last_row <= row_span[1])
     coded = np.where(values[:, phy.sync_chips :] > 0, 1, 0).astype(np.uint8)
-    decoded = phy.decode_coded(coded)
+    # One invalid symbol may be repaired from the chips' confidences.
+    decoded = phy.decode_coded(coded, chips.confidence[index][:, phy.sync_chips :])
     status = np.select(
         [~complete, erased, ~decoded.code_ok, ~decoded.check_ok],
         [TRUNCATED, ERASURE, CODE_ERROR, CHECK_FAILED],

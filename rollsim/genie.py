@@ -26,8 +26,12 @@ the row's expected response in electrons above OFF: gap_r·s_r while no pixel
 clips, and exactly the weighted sum of clipped pixels once some do
 (:class:`RowResponse`; a bright LED at a high ISO clips most of its light).
 off_r and gain_r come from a local least-squares fit with the true chips
-(:func:`fit_levels`). Nothing with this structure (row means, then chips)
-can read more PHY-SDUs, so the gap between :mod:`decoder` and
+(:func:`fit_levels`). The line decoding then repairs at most one invalid
+symbol per PHY-SDU from what flipping each chip would cost
+(:func:`flip_costs`, :meth:`rollsim.protocol.PhyFormat.decode_coded`), as
+the decoder does from its chips' confidences. Nothing with this structure
+(row means, then chips, then the line code) can read more PHY-SDUs, so the
+gap between :mod:`decoder` and
 :func:`genie_decode` on the same frames is what the decoder loses to
 estimating timing, levels and regions.
 
@@ -696,6 +700,52 @@ def detect_chips(values, off, gain, sigma, weights: ExposureWeights, sdu_first_c
     return ChipDecisions(chips[:, :n_chips], metric, np.tanh(merge_gap / 4.0))
 
 
+def flip_costs(values, off, gain, sigma, weights: ExposureWeights, sdu_first_chip, chips: np.ndarray,
+               chip_values: Callable[[np.ndarray], np.ndarray],
+               response: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> np.ndarray:
+    """What flipping each decided chip alone would add to the sequence's cost Σ (y − model)²/σ².
+
+    The reliability of each chip's decision (twice its log-likelihood
+    ratio, the others fixed) for :func:`rollsim.protocol.linecode.repair`.
+    After :func:`detect_chips` it is >= 0 up to rounding: no single flip
+    beats the maximum-likelihood sequence.
+
+    Parameters
+    ----------
+    values, off, gain, sigma, weights, sdu_first_chip, chip_values, response
+        As :func:`detect_chips`.
+    chips : ndarray of uint8, shape (n_sdus, n_chips)
+        The decided chips of each PHY-SDU.
+
+    Returns
+    -------
+    ndarray of float64, shape (n_sdus, n_chips)
+        Clipped at 0.
+    """
+    first = np.atleast_1d(np.asarray(sdu_first_chip, dtype=np.int64))
+    n_sdus, n_chips = chips.shape
+    shape = (n_sdus, np.asarray(values).size)
+    off, gain, sigma = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (off, gain, sigma))
+    values = np.asarray(values, dtype=np.float64)
+    member = (weights.last_chip[None, :] >= first[:, None]) & (weights.first_touched[None, :] < first[:, None] + n_chips)
+    sdu, row = np.nonzero(member)
+    band = weights.first_chip[row][:, None] + np.arange(weights.memory)  # (pairs, L) absolute chips
+    offset = band - first[sdu][:, None]
+    own = (offset >= 0) & (offset < n_chips)
+    bits = np.where(own, chips[sdu[:, None], np.clip(offset, 0, n_chips - 1)], chip_values(band)).astype(np.float64)
+    w = weights.weights[row]
+    level = np.sum(w * bits, axis=1)
+    # Column 0: the decided sequence; column 1 + k: chip k of the band flipped.
+    levels = np.concatenate([level[:, None], level[:, None] + w * (1.0 - 2.0 * bits)], axis=1)
+    drive = levels if response is None else response(row[:, None], levels)
+    cost = np.square((values[row][:, None] - off[sdu, row][:, None] - gain[sdu, row][:, None] * drive)
+                     / sigma[sdu, row][:, None])
+    added = np.where(own & (w > 0), cost[:, 1:] - cost[:, :1], 0.0)
+    out = np.zeros((n_sdus, n_chips))
+    np.add.at(out, (np.broadcast_to(sdu[:, None], offset.shape)[own], offset[own]), added[own])
+    return np.maximum(out, 0.0)
+
+
 # ------------------------------------------------------------ the receiver
 
 
@@ -730,7 +780,8 @@ def genie_decode(image: np.ndarray, truth_record: dict, setup: SceneSetup) -> li
         :meth:`decoder.DecodedPhySdu.to_record`, with the truth's
         ``first_row_f``/``last_row_f``; status ``ok``, ``check_failed`` or
         ``code_error``. The SYNC's chips are detected but not checked: the
-        genie knows where the PHY-SDU is.
+        genie knows where the PHY-SDU is. One invalid line-code symbol is
+        repaired from the chips' flip costs (:func:`flip_costs`).
     """
     from decoder.records import DecodedPhySdu
 
@@ -753,7 +804,9 @@ def genie_decode(image: np.ndarray, truth_record: dict, setup: SceneSetup) -> li
                         _fit_rows(weights, first, phy.sdu_chips, LEVEL_MARGIN_CHIPS), profile.off_e)
     decided = detect_chips(profile.values_dn, levels.off, levels.gain, levels.sigma, weights, first,
                            phy.sdu_chips, chips_of, response)
-    decoded = phy.decode_coded(decided.chips[:, phy.sync_chips:])
+    reliability = flip_costs(profile.values_dn, levels.off, levels.gain, levels.sigma, weights, first, decided.chips,
+                             chips_of, response)
+    decoded = phy.decode_coded(decided.chips[:, phy.sync_chips:], reliability[:, phy.sync_chips:])
     status = _status(decoded)
     frame = int(truth_record["frame"])
     return [

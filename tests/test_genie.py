@@ -15,6 +15,7 @@ from rollsim.evaluate import evaluate
 from rollsim.genie import (
     detect_chips,
     exposure_weights,
+    flip_costs,
     frame_weights,
     genie_decode,
     grid_weights,
@@ -139,17 +140,26 @@ def _brute_force_ml(y, sigma, w, first, n_chips, values_of, off, gap):
     return metric[best], candidates[best], int(np.sum(metric <= metric[best] * (1 + 1e-12)))
 
 
+def _noisy_blocks(n_chips, n_sdus, known_between, rows_per_chip, exposure_chips, noise, seed):
+    """Blocks of ``n_chips`` unknown chips (``known_between`` known ones between) seen as noisy rows, off 3, gap 2.
+
+    Returns y, sigma (per row, 0.5 to 1.5 units), the weights, each block's first chip and ``chip_values``.
+    """
+    period = n_chips + known_between
+    _, values_of = _chip_source(n_sdus * period + 40, seed=seed)
+    n_rows = int((n_sdus * period + 30) * rows_per_chip)
+    w = grid_weights(n_rows, rows_per_chip, exposure_chips, 0.13)
+    rng = np.random.default_rng(seed + 1)
+    sigma = rng.uniform(0.5, 1.5, n_rows)
+    y = 3.0 + 2.0 * w.levels(values_of) + sigma * rng.normal(0, noise, n_rows)
+    return y, sigma, w, 8 + period * np.arange(n_sdus), values_of
+
+
 @pytest.mark.parametrize("rows_per_chip, exposure_chips, noise", [(2.5, 1.7, 0.8), (1.0, 3.2, 0.8), (6.0, 0.3, 2.5)])
 def test_the_viterbi_finds_the_maximum_likelihood_sequence(rows_per_chip, exposure_chips, noise):
     # Brute force over all 2^10 sequences of short blocks with inter-chip interference and strong noise.
-    n_chips, n_sdus = 10, 8
-    _, values_of = _chip_source(n_sdus * 12 + 40, seed=3)
-    n_rows = int((n_sdus * 12 + 30) * rows_per_chip)
-    w = grid_weights(n_rows, rows_per_chip, exposure_chips, 0.13)
-    rng = np.random.default_rng(4)
-    sigma = rng.uniform(0.5, 1.5, n_rows)
-    y = 3.0 + 2.0 * w.levels(values_of) + sigma * rng.normal(0, noise, n_rows)
-    first = 8 + 12 * np.arange(n_sdus)  # two known chips between blocks
+    n_chips = 10
+    y, sigma, w, first, values_of = _noisy_blocks(n_chips, 8, 2, rows_per_chip, exposure_chips, noise, seed=3)
     decided = detect_chips(y, 3.0, 2.0, sigma, w, first, n_chips, values_of)
     for i, c0 in enumerate(first):
         metric, chips, optima = _brute_force_ml(y, sigma, w, c0, n_chips, values_of, 3.0, 2.0)
@@ -157,6 +167,26 @@ def test_the_viterbi_finds_the_maximum_likelihood_sequence(rows_per_chip, exposu
         if optima == 1:  # a unique optimum: the chips must be it
             np.testing.assert_array_equal(decided.chips[i], chips)
     assert np.any(decided.chips != values_of(first[:, None] + np.arange(n_chips)))  # the noise did bite
+
+
+@pytest.mark.parametrize("rows_per_chip, exposure_chips", [(2.5, 1.7), (4.5, 0.8), (1.0, 3.2)])
+def test_flip_costs_are_what_flipping_each_chip_adds_to_the_metric(rows_per_chip, exposure_chips):
+    # Brute force: the metric of every single-chip flip of the decided sequence.
+    n_chips = 12
+    y, sigma, w, first, values_of = _noisy_blocks(n_chips, 5, 2, rows_per_chip, exposure_chips, 0.7, seed=5)
+    decided = detect_chips(y, 3.0, 2.0, sigma, w, first, n_chips, values_of)
+    costs = flip_costs(y, 3.0, 2.0, sigma, w, first, decided.chips, values_of)
+    assert np.all(costs >= 0)
+    for i, c0 in enumerate(first):
+        rows = (w.last_chip >= c0) & (w.first_touched < c0 + n_chips)
+        dense = w.dense(c0 - w.memory, n_chips + 2 * w.memory)[rows]
+        context = values_of(c0 - w.memory + np.arange(n_chips + 2 * w.memory)).astype(float)
+        context[w.memory: w.memory + n_chips] = decided.chips[i]
+        flipped = np.tile(context, (n_chips, 1))
+        flipped[np.arange(n_chips), w.memory + np.arange(n_chips)] = 1 - decided.chips[i]
+        metric = np.sum(((y[rows] - 3.0 - 2.0 * np.vstack([context, flipped]) @ dense.T) / sigma[rows]) ** 2, axis=1)
+        np.testing.assert_allclose(costs[i], metric[1:] - metric[0], rtol=1e-9, atol=1e-9)
+        assert metric[0] == pytest.approx(decided.metric[i], rel=1e-9)
 
 
 @pytest.mark.parametrize("snr", [1.0, 1.5, 2.0])

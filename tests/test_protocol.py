@@ -1,5 +1,6 @@
 """PHY-SDU protocol: packets, check bits, line codes, SYNC uniqueness."""
 
+import itertools
 from itertools import combinations
 
 import numpy as np
@@ -74,6 +75,77 @@ def test_manchester_polarity_is_ieee_802_3():
 def test_invalid_manchester_pair_is_an_error_not_a_guess():
     bits, valid = linecode.decode([[0, 1, 1, 1]], "manchester", 2)
     assert not valid[0]
+
+
+def test_repair_keeps_the_more_reliable_chip_of_an_equal_pair():
+    chips, repaired = linecode.repair([[1, 1, 0, 1], [0, 0, 1, 0]], [[0.9, 0.2, 1, 1], [0.1, 0.8, 1, 1]], "manchester")
+    np.testing.assert_array_equal(chips, [[1, 0, 0, 1], [1, 0, 1, 0]])
+    assert repaired.tolist() == [1, 1]
+
+
+@pytest.mark.parametrize("chips, reliability, margin", [
+    ([1, 1, 0, 0], [0.9, 0.2, 0.9, 0.2], 0.0),  # two invalid pairs: more than one chip went wrong
+    ([1, 1, 0, 1], [0.5, 0.5, 1, 1], 0.0),  # a tie: nothing says which chip is wrong
+    ([1, 1, 0, 1], [0.9, 0.5, 1, 1], 0.67),  # 2·0.4/1.4 = 0.57 of the pair's reliability: not clear enough
+])
+def test_repair_leaves_what_it_cannot_tell(chips, reliability, margin):
+    out, repaired = linecode.repair([chips], [reliability], "manchester", 1, margin)
+    np.testing.assert_array_equal(out, [chips])
+    assert repaired.tolist() == [0]
+
+
+def test_repair_of_4b6b_takes_the_codeword_of_least_flipped_reliability():
+    word = np.array([int(c) for c in FOUR_B_SIX_B_TABLE[5]], dtype=np.uint8)  # 100011
+    broken = word.copy()
+    broken[2] ^= 1  # 101011: four ON chips, no codeword
+    reliability = np.array([1.0, 1.0, 0.1, 1.0, 1.0, 1.0])
+    out, repaired = linecode.repair(broken, reliability, "4b6b")
+    np.testing.assert_array_equal(out[0], word)
+    assert repaired.tolist() == [1]
+
+
+@pytest.mark.parametrize("n_pairs", [1, 4, 6])
+def test_repair_lets_random_chips_pass_with_probability_n_plus_1_over_2_to_the_n(n_pairs):
+    # Exact enumeration of every chip pattern, with distinct reliabilities
+    # (one chip of each pair clearly the less reliable): the valid ones pass,
+    # and so does every pattern with exactly one equal pair.
+    patterns = np.array(list(itertools.product([0, 1], repeat=2 * n_pairs)), dtype=np.uint8)
+    reliability = np.tile([1.0, 0.1], (patterns.shape[0], n_pairs))
+    out, _ = linecode.repair(patterns, reliability, "manchester", 1, 0.67)
+    _, valid = linecode.decode(out, "manchester", n_pairs)
+    assert int(valid.sum()) == (n_pairs + 1) * 2**n_pairs
+    _, plain = linecode.decode(patterns, "manchester", n_pairs)
+    assert int(plain.sum()) == 2**n_pairs
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: linecode.repair([[1, 1, 0]], [[1, 1, 1]], "manchester"), "whole 2-chip symbols"),
+    (lambda: linecode.repair([[1, 1]], [[1, 1, 1]], "manchester"), "must match"),
+    (lambda: linecode.repair([[1, 1]], [[1, -1]], "manchester"), "reliability"),
+    (lambda: linecode.repair([[1, 1]], [[1, np.nan]], "manchester"), "reliability"),
+    (lambda: linecode.repair([[1, 1]], [[1, 0]], "manchester", -1), "max_symbols"),
+])
+def test_repair_refuses_bad_input(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+@pytest.mark.parametrize("check", ["parity2", "crc8"])
+def test_decode_coded_repairs_one_chip_error_given_reliabilities(check):
+    phy = PhyFormat(5, 19, check)
+    rng = np.random.default_rng(8)
+    payload = rng.integers(0, 2, (3, phy.payload_bits))
+    coded = phy.encode(np.array([1, 2, 3]), payload)[:, phy.sync_chips:].copy()
+    reliability = np.ones(coded.shape)
+    coded[0, 7] ^= 1
+    reliability[0, 7] = 0.2  # the noisy chip: the repair flips it back
+    coded[1, [7, 12]] ^= 1
+    reliability[1, [7, 12]] = 0.2  # two broken pairs: left as a code error
+    decoded = phy.decode_coded(coded, reliability)
+    assert decoded.check_ok.tolist() == [True, False, True]
+    assert decoded.code_ok.tolist() == [True, False, True]
+    np.testing.assert_array_equal(decoded.payload[0], payload[0])
+    assert not phy.decode_coded(coded).code_ok[0]  # without reliabilities: never a guess
 
 
 def test_4b6b_table_is_dc_balanced_and_invertible():

@@ -22,6 +22,15 @@ from rollsim.protocol import checks, linecode
 from rollsim.protocol.packets import bits_to_int, int_to_bits
 
 
+# Invalid line-code symbols a PHY-SDU may have and still be repaired from
+# its chips' reliabilities (PhyFormat.decode_coded). One: a single chip
+# error in a Manchester pair is the commonest error at low SNR, and a
+# random codeword of 26 pairs then passes the line code with probability
+# 27·2^-26 (2^-26 without repair), before the check.
+REPAIRABLE_SYMBOLS = 1
+REPAIR_MARGIN = 0.67
+
+
 def sync_pattern(code: str) -> np.ndarray:
     """SYNC chips of line code ``code``: R + 1 ON chips, then one OFF chip."""
     run = linecode.max_run_length(code) + 1
@@ -156,8 +165,17 @@ class PhyFormat:
         sync = np.broadcast_to(self.sync, (coded.shape[0], self.sync_chips))
         return np.concatenate([sync, coded], axis=1)
 
-    def decode_coded(self, chips) -> DecodedSdus:
-        """Decode the chips that follow a SYNC (``coded_chips`` per row)."""
+    def decode_coded(self, chips, reliability=None) -> DecodedSdus:
+        """Decode the chips that follow a SYNC (``coded_chips`` per row).
+
+        Given each chip's ``reliability`` (same shape, >= 0: what flipping
+        it would cost), a row with at most :data:`REPAIRABLE_SYMBOLS`
+        invalid line-code symbols has them replaced by the most likely
+        valid ones first (:func:`rollsim.protocol.linecode.repair`); the
+        check code then judges the result.
+        """
+        if reliability is not None:
+            chips, _ = linecode.repair(chips, reliability, self.line_code, REPAIRABLE_SYMBOLS, REPAIR_MARGIN)
         bits, code_ok = linecode.decode(chips, self.line_code, self.codeword_bits)
         check_ok = code_ok & checks.verify(bits, self.check)
         return DecodedSdus(

@@ -5,7 +5,8 @@ import pytest
 from synth import profile_from_chips
 
 from rollsim.protocol import PhyFormat, sync_pattern
-from decoder.framing import CHECK_FAILED, CODE_ERROR, ERASURE, OK, TRUNCATED, decode_chip_stream, find_sync_starts
+from decoder.framing import (CHECK_FAILED, CODE_ERROR, ERASURE, OK, TRUNCATED, decode_chip_stream, find_sync_starts,
+                             neighbour_starts)
 from decoder.pipeline import decode_profile
 from decoder.profile import RowProfile
 from decoder.timing import ChipStream
@@ -55,6 +56,48 @@ def test_errors_are_reported_not_guessed():
     found = decode_chip_stream(stream, PHY, row_span=(0.0, 5 * PHY.sdu_chips))
     assert found.status.tolist() == [CODE_ERROR, CHECK_FAILED, OK, ERASURE, OK, TRUNCATED]
     assert found.confidence[3] == 0.0
+
+
+@pytest.mark.parametrize("phy", FORMATS, ids=lambda p: f"{p.check}-{p.line_code}")
+@pytest.mark.parametrize("sync_chip", [0, 2, 3])
+def test_a_pdu_whose_sync_lost_a_chip_is_read_between_its_neighbours(phy, sync_chip):
+    chips, payload = sdus(phy, [7, 8, 9])
+    chips[1, sync_chip] ^= 1
+    stream = stream_of(np.concatenate([[0, 1, 0], chips.ravel()]))
+    assert 3 + phy.sdu_chips not in find_sync_starts(stream.values, phy).tolist()
+    found = decode_chip_stream(stream, phy)
+    assert found.sequence[found.check_ok].tolist() == [7, 8, 9]
+    assert np.array_equal(found.payload[found.check_ok], payload)
+    assert found.first_row[found.check_ok].tolist() == [3 + k * phy.sdu_chips for k in range(3)]
+
+
+def test_a_guessed_start_is_kept_only_if_it_passes():
+    chips, _ = sdus(PHY, [7, 8, 9])
+    chips[1, 0] ^= 1  # the middle PHY-SDU's SYNC ...
+    chips[1, 10] ^= 1  # ... and a Manchester pair: nothing to read there
+    found = decode_chip_stream(stream_of(chips.ravel()), PHY)
+    assert found.sequence.tolist() == [7, 9]
+    assert found.status.tolist() == [OK, OK]
+
+
+def test_a_lone_sync_in_noise_guesses_nothing_that_passes():
+    # Random chips either side of one PHY-SDU: its guessed neighbours are noise.
+    rng = np.random.default_rng(3)
+    chips, _ = sdus(PHY, [5])
+    noise = rng.integers(0, 2, PHY.sdu_chips).astype(np.uint8)
+    noise[-PHY.sync_chips:] = [0, 1, 0, 1]  # no SYNC-like run reaching into the PHY-SDU
+    stream = np.concatenate([noise, chips[0], 1 - noise])
+    found = decode_chip_stream(stream_of(stream), PHY)
+    assert found.sequence[found.check_ok].tolist() == [5]
+
+
+def test_neighbour_starts():
+    starts = np.array([10, 66, 200])
+    # 10 - 56 < 0 and 200 + 56 > 250 - 56 are not made; 10 + 56 and 66 - 56 are SYNCs found.
+    assert neighbour_starts(np.array([10, 66, 200]), starts, 250, 56).tolist() == [122, 144]
+    assert neighbour_starts(np.array([66]), np.array([9, 66]), 250, 56).tolist() == [122]
+    assert neighbour_starts(np.array([66]), np.array([8, 66]), 250, 56).tolist() == [10, 122]
+    assert neighbour_starts(np.zeros(0, np.int64), starts, 250, 56).size == 0
 
 
 def test_truncated_at_stream_end_and_inexact_chips():
