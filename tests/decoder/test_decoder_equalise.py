@@ -18,7 +18,8 @@ from decoder.equalise import (
     stepped_ends,
     viterbi,
 )
-from decoder.pipeline import decode_frame, decode_profile
+from decoder.framing import decode_chip_stream
+from decoder.pipeline import decode_frame, decode_profile, equalised_chips
 from decoder.profile import RowProfile
 
 PHY = PhyFormat(5, 19)
@@ -124,6 +125,32 @@ def test_noise_alone_is_erased(exposure_chips, rows_per_chip):
         assert np.all(found.chips.values < 0)
         assert decode_profile(RowProfile(0, values, np.full(1080, 1.5 / 40)), PHY, rows_per_chip,
                               exposure_rows=exposure_chips * rows_per_chip) == []
+
+
+@pytest.mark.parametrize("rows_per_chip, exposure_chips, most_read", [(1.0, 0.8, 0.5), (4.5, 0.8, 0.03), (4.5, 3.0, 0.03),
+                                                                     (10.0, 2.0, 0.03)])
+def test_chips_read_in_noise_never_pass(rows_per_chip, exposure_chips, most_read):
+    # The second look reads rows from WEAK_MODULATION_SIGMA: in noise a few
+    # of them at 2 rows per chip and more (mostly near a profile's ends, where
+    # the window is cut), a third of the chips at one row per chip (a chip a
+    # row fits any noise). Their candidates must fail the
+    # line code and the check (SYNC-like runs are common; a pass is about
+    # 27·2^-26 of them with one symbol repaired, then the check's share).
+    rng = np.random.default_rng(21)
+    candidates = passed = 0
+    read = []
+    for _ in range(12):
+        values = 100.0 + rng.normal(0.0, 1.5, 1080)
+        chips, _, _ = equalised_chips(RowProfile(0, values, np.full(1080, 1.5)), PHY, rows_per_chip,
+                                      exposure_chips * rows_per_chip)
+        read.append(np.mean(chips.values >= 0))
+        found = decode_chip_stream(chips, PHY)
+        candidates += len(found)
+        passed += int(found.check_ok.sum())
+    assert passed == 0
+    assert np.mean(read) < most_read
+    if rows_per_chip == 1.0:
+        assert candidates > 100  # chips were laid on the noise: the code did the filtering
 
 
 def test_clipped_rows_follow_the_ceiling():
