@@ -159,12 +159,14 @@ def repair(chips, reliability, code: str, max_symbols: int = 1, min_margin: floa
     Manchester this is the differential decision: an equal pair keeps its
     more reliable chip. A row with more invalid symbols keeps them (its
     noise is not one unlucky chip), and so does a symbol whose best
-    replacement is tied (an erased chip of reliability 0 beside another).
+    replacement does not beat the next best by more than ``min_margin`` of
+    the symbol's total reliability (a tie: nothing says which chip is
+    wrong).
 
     Repairing weakens the code as an error detector: a random symbol row
     now passes when at most ``max_symbols`` of its S symbols are invalid.
     For 26 Manchester pairs and one symbol that is 27·2^-26 instead of
-    2^-26 (a factor 27, 4.8 bits of the check's protection).
+    2^-26 (a factor 27: 4.8 bits of the line code's protection).
 
     Parameters
     ----------
@@ -175,6 +177,10 @@ def repair(chips, reliability, code: str, max_symbols: int = 1, min_margin: floa
     code : {"manchester", "4b6b"}
     max_symbols : int
         Most invalid symbols a row may have to be repaired (>= 0).
+    min_margin : float
+        Least lead of the best replacement's score over the next best, as a
+        fraction of the symbol's summed reliability; for a Manchester pair
+        of reliabilities a > b the lead is 2(a − b)/(a + b).
 
     Returns
     -------
