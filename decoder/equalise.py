@@ -70,7 +70,8 @@ MIN_MODULATION_SIGMA = 3.0
 # that touches one is kept only if it passes its line code and check
 # (decoder.pipeline). Noise reaches this level, so chips laid there may be
 # noise's: random chips pass Manchester decoding with probability 2^-26 per
-# 26-chip codeword (27·2^-26 with one pair repaired), before the check. In
+# 26-bit codeword (paper-default's 52 chips; at most 27·2^-26 with one pair
+# repaired), before the check. In
 # Gaussian noise a few chips are read from 2 rows per chip on (mostly at a
 # profile's ends), a third at one row per chip; none of their candidates
 # passed (tested). On the envelope's SNR map (16 frames of paper-geometric)
@@ -618,8 +619,12 @@ def _equalised(values, chips, grid: ChipGrid, layout, levels, exposure_rows: flo
     energy = np.bincount(index.ravel(), (g_w * g_w).ravel(), grid.n_chips)
     estimate = chips + np.divide(numerator, energy, out=np.zeros(grid.n_chips), where=energy > 0)
     confidence = np.clip(np.abs(2.0 * estimate - 1.0), 0.0, 1.0)
+    # Flipping chip c alone adds energy·(2c − 1)(2x̂ − 1) to the squared
+    # residual (x̂ its least-squares value): negative where x̂ disagrees.
+    reliability = np.maximum(energy * (2.0 * chips - 1.0) * (2.0 * estimate - 1.0), 0.0)
     values_out = np.where(read, chips, -1).astype(np.int8)
     confidence[~read] = 0.0
+    reliability[~read] = 0.0
     edges = grid.edges()
-    stream = ChipStream(values_out, edges[:-1], edges[1:], confidence, np.ones(grid.n_chips, dtype=bool))
+    stream = ChipStream(values_out, edges[:-1], edges[1:], confidence, np.ones(grid.n_chips, dtype=bool), reliability)
     return Equalised(stream, valid, levels, sigma, modulation)

@@ -6,9 +6,10 @@ run longer, so a SYNC is located by the END of an ON run of at least R + 1
 chips: its first chip is R + 1 chips before the OFF chip that closes the
 run. Coded data never holds R + 1 equal chips, so clean data has one SYNC
 per PHY-SDU. The chips after the SYNC go to
-:meth:`rollsim.protocol.PhyFormat.decode_coded`: an invalid Manchester pair
-or 4B6B word is a code error, never a guess. A PHY-SDU whose SYNC lost a
-chip is still looked for where its neighbours put it: PHY-SDUs are sent
+:meth:`rollsim.protocol.PhyFormat.decode_coded`: one invalid Manchester
+pair or 4B6B word is repaired from the chips' reliabilities where one
+choice is clearly better, more are a code error. A PHY-SDU whose SYNC lost
+a chip is still looked for where its neighbours put it: PHY-SDUs are sent
 back to back.
 
 All candidates of a chip stream are decoded at once.
@@ -95,10 +96,13 @@ def find_sync_starts(chip_values: np.ndarray, phy: PhyFormat) -> np.ndarray:
 def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float, float] | None = None) -> SduCandidates:
     """Find and decode every PHY-SDU candidate of a chip stream.
 
-    Candidates start at every SYNC (:func:`find_sync_starts`), and at the
-    chips one PHY-SDU before and after each candidate that passed its check
-    (:func:`neighbour_starts`), where a chip error in the SYNC hides a
-    PHY-SDU between two read ones; those are kept only if they pass.
+    Candidates start at every SYNC (:func:`find_sync_starts`), and one
+    PHY-SDU before and after each candidate that passed its check, where
+    the chips hold the SYNC but for one chip (:func:`neighbour_starts`):
+    a chip error in a SYNC hides its PHY-SDU from the search, or moves the
+    SYNC found by a chip. Those are kept only if they pass, and their
+    neighbours are looked for in turn; a failed candidate within a chip of
+    one that passed is the same PHY-SDU misaligned, and is dropped.
 
     Parameters
     ----------
@@ -115,30 +119,52 @@ def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float,
     """
     starts = find_sync_starts(chips.values, phy)
     found = decode_at(chips, phy, starts, row_span)
-    guesses = neighbour_starts(starts[found.check_ok], starts, len(chips), phy.sdu_chips)
-    hidden = decode_at(chips, phy, guesses, row_span)
-    hidden = hidden.select(hidden.check_ok)
-    if len(hidden) == 0:
+    known = new = starts[found.check_ok]
+    hidden = []
+    # Each pass starts from the PHY-SDUs the last one found: rarely more than one.
+    while new.size:
+        guesses = neighbour_starts(new, known, len(chips), phy.sdu_chips)
+        guesses = guesses[sync_mismatches(chips.values, guesses, phy) <= 1]
+        read = decode_at(chips, phy, guesses, row_span, sync_known=True)
+        hidden.append(read.select(read.check_ok))
+        new = guesses[read.check_ok]
+        known = np.concatenate([known, new])
+    if len(known) == int(found.check_ok.sum()):
         return found
-    merged = SduCandidates(*(np.concatenate([getattr(found, name), getattr(hidden, name)]) for name in _FIELDS))
+    recovered = known[int(found.check_ok.sum()):]
+    misaligned = ~found.check_ok & (np.min(np.abs(starts[:, None] - recovered[None, :]), axis=1) <= NEIGHBOUR_TOLERANCE_CHIPS)
+    return concatenated([found.select(~misaligned), *hidden])
+
+
+def concatenated(parts: list[SduCandidates]) -> SduCandidates:
+    """Several sets of candidates as one, in row order."""
+    merged = SduCandidates(*(np.concatenate([getattr(c, name) for c in parts]) for name in _FIELDS))
     return merged.select(np.argsort(merged.first_row, kind="stable"))
 
 
-def neighbour_starts(passed: np.ndarray, starts: np.ndarray, n_chips: int, sdu_chips: int) -> np.ndarray:
-    """Chip indices one PHY-SDU before and after each passed candidate, where no SYNC was found.
+def sync_mismatches(chip_values: np.ndarray, starts: np.ndarray, phy: PhyFormat) -> np.ndarray:
+    """How many chips of the SYNC laid at each start differ from it (an erased chip differs), shape (n,)."""
+    index = np.minimum(starts[:, None] + np.arange(phy.sync_chips), len(chip_values) - 1)
+    return np.sum(np.asarray(chip_values)[index] != phy.sync[None, :], axis=1)
+
+
+def neighbour_starts(passed: np.ndarray, known: np.ndarray, n_chips: int, sdu_chips: int) -> np.ndarray:
+    """Chip indices one PHY-SDU before and after each passed candidate, where no passed one starts.
 
     The transmitter sends PHY-SDUs back to back, so a PHY-SDU whose SYNC
     lost a chip to noise still starts exactly ``sdu_chips`` after its
     predecessor (and before its successor). A guess within
-    :data:`NEIGHBOUR_TOLERANCE_CHIPS` of a SYNC found is that SYNC's
-    candidate already; one running past the stream is not made.
+    :data:`NEIGHBOUR_TOLERANCE_CHIPS` of a candidate that passed is that
+    candidate; a SYNC found there that failed may be the guess's PHY-SDU
+    misaligned by the wrong chip, so it does not count. A guess running past
+    the stream is not made.
 
     Parameters
     ----------
     passed : ndarray of int64
-        First chips of the candidates that passed their check.
-    starts : ndarray of int64
-        First chips of every SYNC found.
+        First chips of the candidates to look around.
+    known : ndarray of int64
+        First chips of every candidate that passed.
     n_chips, sdu_chips : int
         Chips in the stream and in a PHY-SDU.
 
@@ -149,17 +175,18 @@ def neighbour_starts(passed: np.ndarray, starts: np.ndarray, n_chips: int, sdu_c
     """
     guesses = np.unique(np.concatenate([passed - sdu_chips, passed + sdu_chips]))
     guesses = guesses[(guesses >= 0) & (guesses + sdu_chips <= n_chips)]
-    if guesses.size == 0 or starts.size == 0:
+    if guesses.size == 0 or known.size == 0:
         return guesses
-    nearest = np.min(np.abs(guesses[:, None] - starts[None, :]), axis=1)
+    nearest = np.min(np.abs(guesses[:, None] - known[None, :]), axis=1)
     return guesses[nearest > NEIGHBOUR_TOLERANCE_CHIPS]
 
 
-# A guessed start this close to a SYNC found (chips) is that SYNC's candidate.
+# A guessed start this close to a passed candidate (chips) is that candidate.
 NEIGHBOUR_TOLERANCE_CHIPS = 1
 
 
-def decode_at(chips: ChipStream, phy: PhyFormat, starts: np.ndarray, row_span: tuple[float, float] | None) -> SduCandidates:
+def decode_at(chips: ChipStream, phy: PhyFormat, starts: np.ndarray, row_span: tuple[float, float] | None,
+              sync_known: bool = False) -> SduCandidates:
     """Decode the PHY-SDU candidates starting at the given chips (SYNC included), in that order.
 
     Parameters
@@ -170,6 +197,9 @@ def decode_at(chips: ChipStream, phy: PhyFormat, starts: np.ndarray, row_span: t
         First chip (the SYNC's) of each candidate; >= 0.
     row_span : (float, float) or None
         As :func:`decode_chip_stream`.
+    sync_known : bool
+        The starts are known otherwise (a neighbour's position): an erased
+        SYNC chip does not make the candidate an erasure.
 
     Returns
     -------
@@ -186,7 +216,7 @@ def decode_at(chips: ChipStream, phy: PhyFormat, starts: np.ndarray, row_span: t
     # Clip indices so that truncated candidates can be gathered too.
     index = np.minimum(starts[:, None] + np.arange(n_chips), total - 1)
     values = chips.values[index]
-    erased = np.any(values < 0, axis=1)
+    erased = np.any(values[:, phy.sync_chips if sync_known else 0 :] < 0, axis=1)
     exact = np.all(chips.exact[index], axis=1)
     first_row = chips.start[starts]
     # A candidate running past the stream ends where its chips would.
@@ -196,8 +226,8 @@ def decode_at(chips: ChipStream, phy: PhyFormat, starts: np.ndarray, row_span: t
     if row_span is not None:
         complete &= (first_row >= row_span[0]) & (last_row <= row_span[1])
     coded = np.where(values[:, phy.sync_chips :] > 0, 1, 0).astype(np.uint8)
-    # One invalid symbol may be repaired from the chips' confidences.
-    decoded = phy.decode_coded(coded, chips.confidence[index][:, phy.sync_chips :])
+    # One invalid symbol may be repaired from the chips' reliabilities.
+    decoded = phy.decode_coded(coded, chips.flip_costs[index][:, phy.sync_chips :])
     status = np.select(
         [~complete, erased, ~decoded.code_ok, ~decoded.check_ok],
         [TRUNCATED, ERASURE, CODE_ERROR, CHECK_FAILED],
@@ -227,6 +257,4 @@ def merge_readings(primary: SduCandidates, secondary: SduCandidates, sdu_rows: f
     near = distance < 0.5 * sdu_rows
     taken = secondary.check_ok & ~np.any(near & primary.check_ok[None, :], axis=1)
     kept = primary.check_ok | ~np.any(near & taken[:, None], axis=0)
-    parts = [primary.select(kept), secondary.select(taken)]
-    merged = SduCandidates(*(np.concatenate([getattr(c, name) for c in parts]) for name in _FIELDS))
-    return merged.select(np.argsort(merged.first_row, kind="stable"))
+    return concatenated([primary.select(kept), secondary.select(taken)])

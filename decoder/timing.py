@@ -63,6 +63,12 @@ class ChipStream:
         |q| at the chip centre, clipped to [0, 1]; 0 for erased chips.
     exact : ndarray of bool, shape (k,)
         False for chips laid past a cut (region border, erasure).
+    reliability : ndarray of float64, shape (k,), optional
+        What flipping each chip's decision alone would cost, in any unit
+        shared by the stream (>= 0; for the line code's repair,
+        :meth:`rollsim.protocol.PhyFormat.decode_coded`); None where
+        ``confidence`` serves (a threshold's distance, whose sign is the
+        decision's).
     """
 
     values: np.ndarray
@@ -70,6 +76,12 @@ class ChipStream:
     end: np.ndarray
     confidence: np.ndarray
     exact: np.ndarray
+    reliability: np.ndarray | None = None
+
+    @property
+    def flip_costs(self) -> np.ndarray:
+        """:attr:`reliability`, or :attr:`confidence` where there is none."""
+        return self.confidence if self.reliability is None else self.reliability
 
     def __len__(self) -> int:
         return int(self.values.size)

@@ -29,9 +29,9 @@ off_r and gain_r come from a local least-squares fit with the true chips
 (:func:`fit_levels`). The line decoding then repairs at most one invalid
 symbol per PHY-SDU from what flipping each chip would cost
 (:func:`flip_costs`, :meth:`rollsim.protocol.PhyFormat.decode_coded`), as
-the decoder does from its chips' confidences. Nothing with this structure
-(row means, then chips, then the line code) can read more PHY-SDUs, so the
-gap between :mod:`decoder` and
+the decoder does from its chips' reliabilities. Nothing with this
+structure (row means, then chips, then the line code with this repair
+rule) can read more PHY-SDUs, so the gap between :mod:`decoder` and
 :func:`genie_decode` on the same frames is what the decoder loses to
 estimating timing, levels and regions.
 
@@ -578,16 +578,30 @@ def _branch_costs(values, off, gain, sigma, weights: ExposureWeights, sdu_first_
     """
     memory = weights.memory
     n_sdus = sdu_first_chip.size
-    step = weights.last_chip[None, :] - sdu_first_chip[:, None]
-    member = (step >= 0) & (weights.first_touched[None, :] - sdu_first_chip[:, None] < n_chips)
-    sdu, row = np.nonzero(member)
+    sdu, row = _members(weights, sdu_first_chip, n_chips)
+    step = weights.last_chip[row] - sdu_first_chip[sdu]
     level = weights.weights[row] @ _pattern_bits(memory)  # (pairs, 2^L)
     drive = level if response is None else response(row[:, None], level)
     model = off[sdu, row][:, None] + gain[sdu, row][:, None] * drive
     cost = np.square((values[row][:, None] - model) / sigma[sdu, row][:, None])
     costs = np.zeros((n_sdus, n_chips + memory - 1, 2**memory))
-    np.add.at(costs, (sdu, step[sdu, row]), cost)
+    np.add.at(costs, (sdu, step), cost)
     return costs
+
+
+def _members(weights: ExposureWeights, sdu_first_chip: np.ndarray, n_chips: int) -> tuple[np.ndarray, np.ndarray]:
+    """(PHY-SDU, row) pairs of the rows whose exposure touches each PHY-SDU's chips, as two index arrays."""
+    member = ((weights.last_chip[None, :] >= sdu_first_chip[:, None])
+              & (weights.first_touched[None, :] < sdu_first_chip[:, None] + n_chips))
+    sdu, row = np.nonzero(member)
+    return sdu, row
+
+
+def _per_sdu(first: np.ndarray, values, off, gain, sigma) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The row means as float64, and off, gain and sigma broadcast to (n_sdus, rows)."""
+    values = np.asarray(values, dtype=np.float64)
+    shape = (first.size, values.size)
+    return (values, *(np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (off, gain, sigma)))
 
 
 def _force_known(costs: np.ndarray, sdu_first_chip: np.ndarray, n_chips: int,
@@ -686,9 +700,7 @@ def detect_chips(values, off, gain, sigma, weights: ExposureWeights, sdu_first_c
     first = np.atleast_1d(np.asarray(sdu_first_chip, dtype=np.int64))
     if n_chips < 1:
         raise ValueError(f"n_chips must be >= 1, got {n_chips}")
-    shape = (first.size, np.asarray(values).size)
-    off, gain, sigma = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (off, gain, sigma))
-    values = np.asarray(values, dtype=np.float64)
+    values, off, gain, sigma = _per_sdu(first, values, off, gain, sigma)
     if not np.all(sigma > 0):
         raise ValueError("sigma must be > 0 for every row")
     memory = weights.memory
@@ -724,11 +736,8 @@ def flip_costs(values, off, gain, sigma, weights: ExposureWeights, sdu_first_chi
     """
     first = np.atleast_1d(np.asarray(sdu_first_chip, dtype=np.int64))
     n_sdus, n_chips = chips.shape
-    shape = (n_sdus, np.asarray(values).size)
-    off, gain, sigma = (np.broadcast_to(np.asarray(x, dtype=np.float64), shape) for x in (off, gain, sigma))
-    values = np.asarray(values, dtype=np.float64)
-    member = (weights.last_chip[None, :] >= first[:, None]) & (weights.first_touched[None, :] < first[:, None] + n_chips)
-    sdu, row = np.nonzero(member)
+    values, off, gain, sigma = _per_sdu(first, values, off, gain, sigma)
+    sdu, row = _members(weights, first, n_chips)
     band = weights.first_chip[row][:, None] + np.arange(weights.memory)  # (pairs, L) absolute chips
     offset = band - first[sdu][:, None]
     own = (offset >= 0) & (offset < n_chips)

@@ -99,9 +99,38 @@ def test_repair_of_4b6b_takes_the_codeword_of_least_flipped_reliability():
     broken = word.copy()
     broken[2] ^= 1  # 101011: four ON chips, no codeword
     reliability = np.array([1.0, 1.0, 0.1, 1.0, 1.0, 1.0])
-    out, repaired = linecode.repair(broken, reliability, "4b6b")
+    out, repaired = linecode.repair(broken, reliability, "4b6b", 1, 2.0 / 3.0)
     np.testing.assert_array_equal(out[0], word)
     assert repaired.tolist() == [1]
+
+
+@pytest.mark.parametrize("line_code", ["manchester", "4b6b"])
+def test_decode_coded_repairs_a_weak_chip_in_either_code(line_code):
+    # The margin is measured on the chips where the two best replacements
+    # differ, so it asks the same of a 6-chip word as of a pair.
+    phy = PhyFormat(5, 19, "crc8", line_code)
+    rng = np.random.default_rng(5)
+    repaired = 0
+    for _ in range(40):
+        payload = rng.integers(0, 2, (1, phy.payload_bits))
+        coded = phy.encode(np.array([9]), payload)[:, phy.sync_chips:].copy()
+        reliability = rng.uniform(0.6, 1.0, coded.shape)
+        chip = rng.integers(coded.shape[1])
+        coded[0, chip] ^= 1
+        reliability[0, chip] = 0.1
+        decoded = phy.decode_coded(coded, reliability)
+        assert not phy.decode_coded(coded).code_ok[0]
+        if decoded.code_ok[0]:
+            repaired += 1
+            assert decoded.check_ok[0] and np.array_equal(decoded.payload, payload)
+    # Every flip breaks its symbol (a pair of equal chips; a word of two or
+    # four ON chips), and the weak chip is the clear one to flip back.
+    assert repaired == 40
+
+
+def test_repair_of_no_rows():
+    out, repaired = linecode.repair(np.zeros((0, 8), np.uint8), np.zeros((0, 8)), "manchester")
+    assert out.shape == (0, 8) and repaired.shape == (0,)
 
 
 @pytest.mark.parametrize("n_pairs", [1, 4, 6])

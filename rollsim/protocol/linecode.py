@@ -160,13 +160,16 @@ def repair(chips, reliability, code: str, max_symbols: int = 1, min_margin: floa
     more reliable chip. A row with more invalid symbols keeps them (its
     noise is not one unlucky chip), and so does a symbol whose best
     replacement does not beat the next best by more than ``min_margin`` of
-    the symbol's total reliability (a tie: nothing says which chip is
-    wrong).
+    the reliability of the chips where the two differ (a tie: nothing says
+    which chip is wrong). For one chip of reliability b to flip against
+    another of a, that is 2(a − b)/(a + b), in either code.
 
     Repairing weakens the code as an error detector: a random symbol row
-    now passes when at most ``max_symbols`` of its S symbols are invalid.
-    For 26 Manchester pairs and one symbol that is 27·2^-26 instead of
-    2^-26 (a factor 27: 4.8 bits of the line code's protection).
+    may now pass when at most ``max_symbols`` of its S symbols are invalid
+    (those whose repair the margin lets through). With one symbol, at most
+    (S + 1)·2^-S for Manchester instead of 2^-S (26 bits: a factor 27, 4.8
+    bits of the line code's protection) and (1 + 3S)·4^-S for 4B6B instead
+    of 4^-S.
 
     Parameters
     ----------
@@ -179,8 +182,8 @@ def repair(chips, reliability, code: str, max_symbols: int = 1, min_margin: floa
         Most invalid symbols a row may have to be repaired (>= 0).
     min_margin : float
         Least lead of the best replacement's score over the next best, as a
-        fraction of the symbol's summed reliability; for a Manchester pair
-        of reliabilities a > b the lead is 2(a − b)/(a + b).
+        fraction of the summed reliability of the chips where the two
+        differ (>= 0).
 
     Returns
     -------
@@ -204,16 +207,19 @@ def repair(chips, reliability, code: str, max_symbols: int = 1, min_margin: floa
         raise ValueError(f"chips {rows.shape} and reliability {weights.shape} must match, in whole {per_symbol}-chip symbols")
     if not np.all(np.isfinite(weights) & (weights >= 0)):
         raise ValueError("reliability must be finite and >= 0")
-    if max_symbols < 0:
-        raise ValueError(f"max_symbols must be >= 0, got {max_symbols}")
+    if max_symbols < 0 or not min_margin >= 0:
+        raise ValueError(f"max_symbols and min_margin must be >= 0, got {max_symbols} and {min_margin}")
     words = _codewords(code)
-    symbols = rows.reshape(rows.shape[0], -1, per_symbol)
+    shape = (rows.shape[0], rows.shape[1] // per_symbol, per_symbol)
+    symbols, weights = rows.reshape(shape), weights.reshape(shape)
     invalid = ~np.any(np.all(symbols[:, :, None, :] == words[None, None], axis=3), axis=2)
     count = invalid.sum(axis=1)
-    scores = ((2.0 * symbols - 1.0) * weights.reshape(symbols.shape)) @ (2.0 * words - 1.0).T
-    ranked = np.sort(scores, axis=2)
-    total = weights.reshape(symbols.shape).sum(axis=2)
-    unique = ranked[:, :, -1] - ranked[:, :, -2] > min_margin * total
-    replace = invalid & unique & (count <= max_symbols)[:, None]
-    symbols[replace] = words[np.argmax(scores, axis=2)[replace]]
+    scores = ((2.0 * symbols - 1.0) * weights) @ (2.0 * words - 1.0).T
+    order = np.argsort(scores, axis=2)
+    best, runner_up = order[:, :, -1], order[:, :, -2]
+    lead = np.take_along_axis(scores, best[:, :, None], 2)[:, :, 0] - np.take_along_axis(scores, runner_up[:, :, None], 2)[:, :, 0]
+    contested = np.sum(weights * (words[best] != words[runner_up]), axis=2)
+    clear = (lead > 0) & (lead > min_margin * contested)
+    replace = invalid & clear & (count <= max_symbols)[:, None]
+    symbols[replace] = words[best[replace]]
     return rows, replace.sum(axis=1)

@@ -24,12 +24,12 @@ from rollsim.protocol.packets import bits_to_int, int_to_bits
 
 # Invalid line-code symbols a PHY-SDU may have and still be repaired from
 # its chips' reliabilities (PhyFormat.decode_coded). One: a single chip
-# error in a Manchester pair is the commonest error at low SNR, and a
-# random codeword of 26 pairs then passes the line code with probability
+# error is the commonest error at low SNR, and a random codeword of 26
+# Manchester pairs then passes the line code with probability at most
 # 27·2^-26 (2^-26 without repair), before the check.
 REPAIRABLE_SYMBOLS = 1
 # The replacement must beat the next best by more than this fraction of the
-# symbol's reliability: for a Manchester pair, the chip flipped less than
+# reliability of the chips where they differ: the chip flipped less than
 # half as reliable as the one kept (2(a − b)/(a + b) > 2/3). An equal pair
 # of two sure chips is not one noisy chip but a misplaced symbol (a
 # PHY-SDU's end past the LED, a slipped grid): on stress-low-snr, repairing

@@ -59,16 +59,58 @@ def test_errors_are_reported_not_guessed():
 
 
 @pytest.mark.parametrize("phy", FORMATS, ids=lambda p: f"{p.check}-{p.line_code}")
-@pytest.mark.parametrize("sync_chip", [0, 2, 3])
-def test_a_pdu_whose_sync_lost_a_chip_is_read_between_its_neighbours(phy, sync_chip):
-    chips, payload = sdus(phy, [7, 8, 9])
-    chips[1, sync_chip] ^= 1
-    stream = stream_of(np.concatenate([[0, 1, 0], chips.ravel()]))
-    assert 3 + phy.sdu_chips not in find_sync_starts(stream.values, phy).tolist()
-    found = decode_chip_stream(stream, phy)
-    assert found.sequence[found.check_ok].tolist() == [7, 8, 9]
-    assert np.array_equal(found.payload[found.check_ok], payload)
-    assert found.first_row[found.check_ok].tolist() == [3 + k * phy.sdu_chips for k in range(3)]
+def test_a_pdu_whose_sync_lost_a_chip_is_read_between_its_neighbours(phy):
+    # Every SYNC chip of the middle PHY-SDU, over payloads that make the SYNC
+    # found move by a chip (a predecessor ending ON, data starting 01).
+    missed = []
+    for seed in range(8):
+        for sync_chip in range(phy.sync_chips):
+            chips, payload = sdus(phy, [7, 8, 9], seed=seed)
+            chips[1, sync_chip] ^= 1
+            stream = stream_of(np.concatenate([[0, 1, 0], chips.ravel()]))
+            found = decode_chip_stream(stream, phy)
+            passed = found.check_ok
+            if found.sequence[passed].tolist() != [7, 8, 9] or not np.array_equal(found.payload[passed], payload):
+                missed.append((seed, sync_chip))
+                continue
+            assert found.first_row[passed].tolist() == [3 + k * phy.sdu_chips for k in range(3)]
+            # No failed reading of the same PHY-SDU a chip off is left beside it.
+            assert np.all(np.min(np.abs(found.first_row[~passed, None] - found.first_row[None, passed]), axis=1,
+                                 initial=np.inf) > 1.0)
+    assert missed == []
+
+
+def test_an_erased_sync_chip_and_a_run_of_lost_syncs_are_read():
+    chips, _ = sdus(PHY, [1, 2, 3, 4, 5])
+    chips[1, 1] ^= 1
+    chips[2, 0] ^= 1  # two SYNCs in a row: found from each end in turn
+    stream = chips.ravel().astype(np.int8)
+    stream[3 * PHY.sdu_chips + 2] = -1  # an erased SYNC chip
+    found = decode_chip_stream(stream_of(stream), PHY)
+    assert found.sequence[found.check_ok].tolist() == [1, 2, 3, 4, 5]
+
+
+def test_a_guess_whose_sync_is_two_chips_off_is_not_made():
+    chips, _ = sdus(PHY, [7, 8, 9])
+    chips[1, [0, 2]] ^= 1
+    found = decode_chip_stream(stream_of(chips.ravel()), PHY)
+    assert found.sequence[found.check_ok].tolist() == [7, 9]
+
+
+def test_one_broken_pair_is_repaired_from_the_chips_reliabilities():
+    chips, payload = sdus(PHY, [4, 5])
+    stream = chips.ravel().astype(np.int8)
+    reliability = np.ones(stream.size)
+    broken = PHY.sdu_chips + PHY.sync_chips + 9
+    stream[broken] ^= 1
+    reliability[broken] = 0.3  # the noisy chip of its pair
+    start = np.arange(stream.size, dtype=np.float64)
+    confident = ChipStream(stream, start, start + 1.0, np.ones(stream.size), np.ones(stream.size, bool))
+    assert decode_chip_stream(confident, PHY).status.tolist() == [OK, CODE_ERROR]  # a tie: never a guess
+    graded = ChipStream(stream, start, start + 1.0, np.ones(stream.size), np.ones(stream.size, bool), reliability)
+    found = decode_chip_stream(graded, PHY)
+    assert found.status.tolist() == [OK, OK]
+    np.testing.assert_array_equal(found.payload, payload)
 
 
 def test_a_guessed_start_is_kept_only_if_it_passes():
