@@ -120,7 +120,7 @@ def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float,
     starts = find_sync_starts(chips.values, phy)
     found = decode_at(chips, phy, starts, row_span)
     known = new = starts[found.check_ok]
-    hidden = []
+    hidden, recovered = [], np.zeros(0, dtype=np.int64)
     # Each pass starts from the PHY-SDUs the last one found: rarely more than one.
     while new.size:
         guesses = neighbour_starts(new, known, len(chips), phy.sdu_chips)
@@ -128,10 +128,9 @@ def decode_chip_stream(chips: ChipStream, phy: PhyFormat, row_span: tuple[float,
         read = decode_at(chips, phy, guesses, row_span, sync_known=True)
         hidden.append(read.select(read.check_ok))
         new = guesses[read.check_ok]
-        known = np.concatenate([known, new])
-    if len(known) == int(found.check_ok.sum()):
+        known, recovered = np.concatenate([known, new]), np.concatenate([recovered, new])
+    if recovered.size == 0:
         return found
-    recovered = known[int(found.check_ok.sum()):]
     misaligned = ~found.check_ok & (np.min(np.abs(starts[:, None] - recovered[None, :]), axis=1) <= NEIGHBOUR_TOLERANCE_CHIPS)
     return concatenated([found.select(~misaligned), *hidden])
 

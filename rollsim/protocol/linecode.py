@@ -132,19 +132,27 @@ def decode(chips, code: str, n_bits: int) -> tuple[np.ndarray, np.ndarray]:
     expected = coded_chips(n_bits, code)
     if rows.shape[1] != expected:
         raise ValueError(f"expected {expected} chips for {n_bits} bits in {code}, got {rows.shape[1]}")
+    symbols = _symbol_index(rows.reshape(rows.shape[0], -1, chips_per_symbol(code)[0]), code)
+    valid = np.all(symbols >= 0, axis=1)
     if code == "manchester":
-        first, second = rows[:, 0::2], rows[:, 1::2]
-        valid = np.all(first != second, axis=1)
-        return np.where(first != second, second, 0).astype(np.uint8), valid
-    index = rows.reshape(rows.shape[0], -1, 6) @ _6B_WEIGHTS
-    nibbles = _6B_TO_NIBBLE[index]
-    valid = np.all(nibbles >= 0, axis=1)
-    bits = _NIBBLE_BITS[np.maximum(nibbles, 0)].reshape(rows.shape[0], -1)
+        return np.maximum(symbols, 0).astype(np.uint8), valid
+    bits = _NIBBLE_BITS[np.maximum(symbols, 0)].reshape(rows.shape[0], -1)
     return bits[:, :n_bits], valid
 
 
+def _symbol_index(symbols: np.ndarray, code: str) -> np.ndarray:
+    """Which codeword of :func:`_codewords` each symbol (chips on the last axis) is; -1 if none.
+
+    The index is the symbol's value: the bit of a Manchester pair, the
+    nibble of a 4B6B word.
+    """
+    if code == "manchester":
+        return np.where(symbols[..., 0] != symbols[..., 1], symbols[..., 1].astype(np.int16), -1)
+    return _6B_TO_NIBBLE[symbols @ _6B_WEIGHTS]
+
+
 def _codewords(code: str) -> np.ndarray:
-    """Every valid symbol of ``code`` as chips, shape (n_symbols, chips per symbol)."""
+    """Every valid symbol of ``code`` as chips, shape (n_symbols, chips per symbol), in the order of their values."""
     # Manchester: bit 0 is 10, bit 1 is 01 (IEEE 802.3 polarity).
     return np.array([[1, 0], [0, 1]], dtype=np.uint8) if code == "manchester" else _4B6B_CHIPS
 
@@ -212,7 +220,7 @@ def repair(chips, reliability, code: str, max_symbols: int = 1, min_margin: floa
     words = _codewords(code)
     shape = (rows.shape[0], rows.shape[1] // per_symbol, per_symbol)
     symbols, weights = rows.reshape(shape), weights.reshape(shape)
-    invalid = ~np.any(np.all(symbols[:, :, None, :] == words[None, None], axis=3), axis=2)
+    invalid = _symbol_index(symbols, code) < 0
     count = invalid.sum(axis=1)
     scores = ((2.0 * symbols - 1.0) * weights) @ (2.0 * words - 1.0).T
     order = np.argsort(scores, axis=2)
