@@ -4,7 +4,8 @@ It imports only :mod:`rollsim.protocol` from rollsim, so that it also runs on
 frames from a real camera.
 
 Stages, one module each: :mod:`decoder.io` (reading frames),
-:mod:`decoder.region` (LED footprints), :mod:`decoder.profile` (row means),
+:mod:`decoder.region` (LED footprints, whose parts across a long
+exposure's flat band :mod:`decoder.bridging` joins), :mod:`decoder.profile` (row means),
 :mod:`decoder.binarize` (local threshold and erasures), :mod:`decoder.timing`
 (clock recovery), :mod:`decoder.framing` (SYNC, line code, check) and
 :mod:`decoder.pipeline` (the whole chain); :mod:`decoder.equalise` detects

@@ -533,7 +533,7 @@ def decode_frame(
                                "min_contrast": min_contrast, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     decoded: list[DecodedPhySdu] = []
     for index, (_, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
-                                                                           max_regions)):
+                                                                           max_regions, options["exposure_rows"])):
         decoded.extend(_decode_profile_levels(profile, phy, pitch, frame_index=frame_index, region=index,
                                               weighted=weighted, **options)[0])
     return decoded
@@ -548,15 +548,31 @@ def exposure_rows(exposure_s: float | None, row_time_s: float | None) -> float |
     return float(exposure_s) / float(row_time_s)
 
 
-def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int):
+def bridge_rows(phy: PhyFormat, rows_per_chip: float | None, exposure_rows: float | None) -> float:
+    """Longest lit band without stripes (rows) that may split an LED's footprint: a PHY-SDU's rows.
+
+    Only an exposure the sequence detector reads (longer than
+    :data:`LONG_EXPOSURE_CHIPS` chips) flattens runs of chips into such a
+    band (:mod:`decoder.bridging`); otherwise 0, and no part is joined.
+    """
+    if rows_per_chip is None or exposure_rows is None or exposure_rows <= LONG_EXPOSURE_CHIPS * rows_per_chip:
+        return 0.0
+    return phy.sdu_chips * rows_per_chip
+
+
+def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int,
+                     exposure_rows: float | None = None):
     """Yield ``(frame columns, row profile, nominal rows per chip or None, stripe-weighted profile)`` per LED region.
 
     The last is a callable giving :func:`decoder.profile.stripe_weighted_profile`
-    (None without a chip pitch), computed only if asked for."""
+    (None without a chip pitch), computed only if asked for. ``exposure_rows``
+    (exposure / row time), if known, lets a long exposure's flat bands join
+    a footprint's parts (:func:`bridge_rows`)."""
     frame = as_frame_array(image)
     pitch = nominal_rows_per_chip(clock_hz, row_time_s) if clock_hz is not None and row_time_s is not None else None
     blocks = block_means(frame, choose_factor(frame.shape[:2], block_px))
-    regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch)
+    regions = detect_regions(blocks, closing_rows(phy, pitch), max_regions=max_regions, rows_per_chip=pitch,
+                             bridge_rows=bridge_rows(phy, pitch, exposure_rows))
     if pitch is None:
         # One row time and one clock make one chip pitch for the whole frame:
         # estimate it from the regions found without it, then find the
@@ -638,7 +654,7 @@ def inspect_frame(
                "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     views = []
     for index, (cols, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
-                                                                              max_regions)):
+                                                                              max_regions, options["exposure_rows"])):
         sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted,
                                                     measure_span=True, **options)
         rows = slice(profile.first_row, profile.first_row + len(profile))

@@ -40,6 +40,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from decoder.bridging import Part, bridged
 from decoder.kernels import block_means_u8, frame_words, noise_power_f32
 from decoder.order_stats import median
 
@@ -226,6 +227,7 @@ def detect_regions(
     min_area_blocks: int = 4,
     min_separation: float = MIN_SEPARATION_SIGMA,
     rows_per_chip: float | None = None,
+    bridge_rows: float = 0.0,
 ) -> list[Region]:
     """Find the LED footprints of a block-averaged frame.
 
@@ -245,6 +247,11 @@ def detect_regions(
         The chip pitch in rows, if known: blocks whose stripe power clearly
         exceeds the noise's then join the regions (see
         :func:`modulated_mask`).
+    bridge_rows : float
+        Longest lit band without stripes (rows) that joins the parts of a
+        footprint above and below it, or extends one to the frame's edge
+        (:mod:`decoder.bridging`: a long exposure flattens runs of equal
+        bits); 0 joins none.
 
     Returns
     -------
@@ -287,7 +294,8 @@ def detect_regions(
     contours, _ = cv2.findContours(bright, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
     boxes = [cv2.boundingRect(c) for c in contours]
     order = sorted(range(len(boxes)), key=lambda i: -boxes[i][2] * boxes[i][3])
-    regions = []
+    bridge_blocks = int(bridge_rows // image.factor)
+    parts: list[Part] = []
     for i in order:
         x, y, w, h = boxes[i]
         if w * h < min_area_blocks:
@@ -297,10 +305,12 @@ def detect_regions(
         area = int(cv2.countNonZero(mask))
         if area >= min_area_blocks:
             mask, y = _extend_ends(smooth, mask, x, y, faint, kernel_rows)
-            regions.append(_region_from_mask(image, mask, x, y, area))
-        if len(regions) == max_regions:
+            parts.append(Part(mask, x, y, area))
+        # Parts beyond the largest few may still join one of them.
+        if len(parts) == max_regions and bridge_blocks == 0:
             break
-    return regions
+    parts = bridged(gray, parts, bridge_blocks, kernel_rows)[:max_regions]
+    return [_region_from_mask(image, p.mask, p.x, p.y, p.area) for p in parts]
 
 
 def bright_mask(gray: np.ndarray, noise: float, kernel_rows: int, average_rows: int, min_separation: float):
