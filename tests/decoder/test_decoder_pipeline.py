@@ -41,7 +41,7 @@ def run_frames(n, seed, phy=PHY, decode_kw=None, **synth_kw):
         tx = make_transmitter(phy, clock_hz=clock_hz, start_s=rng.uniform(0, 0.02))
         frame = synth_frame(tx, rng=rng, **synth_kw)
         found = decode(frame, phy, **(decode_kw or {}))
-        m = match(found, frame.truth)
+        m = match(found, frame.truth, sent=frame.sent)
         inner = match(found, interior(frame))
         totals["ok"] += len(m["ok"])
         totals["missed"] += len(m["missed"])
@@ -195,7 +195,7 @@ def test_partial_phy_sdus_are_never_ok():
         found = decode(frame, include_truncated=True)
         assert any(s.status == "truncated" for s in found)
         assert all(not s.check_ok for s in found if s.status == "truncated")
-        assert match(found, frame.truth)["false"] == []
+        assert match(found, frame.truth, sent=frame.sent)["false"] == []
         for sdu in found:  # finite rows, strict JSON
             json.dumps(sdu.to_record(), allow_nan=False)
 
