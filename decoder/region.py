@@ -220,6 +220,11 @@ def otsu_threshold(values: np.ndarray) -> tuple[float, float, float] | None:
     return lo + (t8 + 0.5) / scale, low, high
 
 
+# Parts of footprints, per region kept, that may join across flat bands
+# (the largest by bounding box first).
+BRIDGED_PARTS_PER_REGION = 4
+
+
 def detect_regions(
     image: BlockImage,
     close_rows: float,
@@ -248,10 +253,10 @@ def detect_regions(
         exceeds the noise's then join the regions (see
         :func:`modulated_mask`).
     bridge_rows : float
-        Longest lit band without stripes (rows) that joins the parts of a
-        footprint above and below it, or extends one to the frame's edge
+        Most rows by which each part of a footprint grows over a lit band
+        without stripes, joining the parts that then meet
         (:mod:`decoder.bridging`: a long exposure flattens runs of equal
-        bits); 0 joins none.
+        bits); 0 grows and joins none.
 
     Returns
     -------
@@ -306,8 +311,9 @@ def detect_regions(
         if area >= min_area_blocks:
             mask, y = _extend_ends(smooth, mask, x, y, faint, kernel_rows)
             parts.append(Part(mask, x, y, area))
-        # Parts beyond the largest few may still join one of them.
-        if len(parts) == max_regions and bridge_blocks == 0:
+        # Parts beyond the largest few may still join one of them; past a
+        # few per region they are specks, and the pairwise join stays cheap.
+        if len(parts) == (max_regions if bridge_blocks == 0 else BRIDGED_PARTS_PER_REGION * max_regions):
             break
     parts = bridged(gray, parts, bridge_blocks, kernel_rows)[:max_regions]
     return [_region_from_mask(image, p.mask, p.x, p.y, p.area) for p in parts]
