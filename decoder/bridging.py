@@ -73,13 +73,6 @@ def lit_threshold(gray: np.ndarray, rows: slice, cols: slice) -> float:
     return 0.5 * (float(means.mean()) + float(means.min()))
 
 
-def band_is_lit(gray: np.ndarray, rows: slice, cols: slice, threshold: float) -> bool:
-    """Whether every block row of a band, averaged over ``cols``, is brighter than ``threshold`` (DN)."""
-    if rows.stop <= rows.start:
-        return True
-    return bool(np.all(gray[rows, cols].mean(axis=1) > threshold))
-
-
 def _shared_cols(upper: Part, lower: Part) -> slice | None:
     """Block columns both parts span, if at least half the narrower one's width."""
     start, stop = max(upper.x, lower.x), min(upper.stop_col, lower.stop_col)
