@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, replace
 from functools import partial
-from typing import Any, Iterable, Iterator
+from typing import Any, Callable, Iterable, Iterator, NamedTuple
 
 import cv2
 import numpy as np
@@ -27,9 +27,10 @@ from decoder.framing import OK, TRUNCATED, SduCandidates, decode_chip_stream, me
 from decoder.io import MAX_FRAME_PIXELS, FrameError, as_frame_array, read_frame
 from decoder.order_stats import median, percentiles
 from decoder.pitch import choose_grid, edge_grid_fit, merge_candidates, pitch_candidates, edge_energy_period_rows
-from decoder.profile import RowProfile, row_profile, stripe_weighted_profile
+from decoder.profile import RowProfile, profile_rows, row_profile, stripe_weighted_profile, with_end_rows
 from decoder.records import STATUSES, DecodedPhySdu, FrameDecode
-from decoder.region import block_means, choose_factor, detect_regions, full_height
+from decoder.reach import REACH_CHIPS, striped_ends, striped_reach
+from decoder.region import block_means, choose_factor, detect_regions, extended, full_height, room_to_grow
 from decoder.timing import (
     MIN_ROWS_PER_CHIP,
     Runs,
@@ -60,6 +61,11 @@ def longest_run_chips(phy: PhyFormat) -> int:
     The SYNC's ON chips plus up to R ON chips of the data before it.
     """
     return phy.sync_chips - 1 + max_run_length(phy.line_code)
+
+
+def reach_window_rows(phy: PhyFormat, rows_per_chip: float) -> int:
+    """Rows of the LED that surely hold an edge of its stripes: the longest run of equal chips and one more."""
+    return int(np.ceil((longest_run_chips(phy) + 1) * rows_per_chip))
 
 
 def envelope_window_rows(phy: PhyFormat, rows_per_chip: float) -> int:
@@ -308,8 +314,9 @@ def decode_profile(
     list of DecodedPhySdu
         In row order.
     """
-    options = {"frame_index": frame_index, "region": region, "include_failed": include_failed,
-               "include_truncated": include_truncated, "min_contrast": min_contrast, "exposure_rows": exposure_rows}
+    options: dict[str, Any] = {"frame_index": frame_index, "region": region, "include_failed": include_failed,
+                               "include_truncated": include_truncated, "min_contrast": min_contrast,
+                               "exposure_rows": exposure_rows}
     return _decode_profile_levels(profile, phy, rows_per_chip, **options)[0]
 
 
@@ -532,10 +539,10 @@ def decode_frame(
     options: dict[str, Any] = {"include_failed": include_failed, "include_truncated": include_truncated,
                                "min_contrast": min_contrast, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     decoded: list[DecodedPhySdu] = []
-    for index, (_, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
-                                                                           max_regions, options["exposure_rows"])):
-        decoded.extend(_decode_profile_levels(profile, phy, pitch, frame_index=frame_index, region=index,
-                                              weighted=weighted, **options)[0])
+    for index, read in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px, max_regions,
+                                                  options["exposure_rows"])):
+        decoded.extend(_decode_profile_levels(read.profile, phy, read.pitch, frame_index=frame_index, region=index,
+                                              weighted=read.weighted, **options)[0])
     return decoded
 
 
@@ -562,10 +569,9 @@ def bridge_rows(phy: PhyFormat, rows_per_chip: float | None, exposure_rows: floa
 
 def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int, max_regions: int,
                      exposure_rows: float | None = None):
-    """Yield ``(frame columns, row profile, nominal rows per chip or None, stripe-weighted profile)`` per LED region.
+    """Yield a :class:`RegionProfiles` per LED region.
 
-    The last is a callable giving :func:`decoder.profile.stripe_weighted_profile`
-    (None without a chip pitch), computed only if asked for. ``exposure_rows``
+    The stripe-weighted profile is computed only if asked for. ``exposure_rows``
     (exposure / row time), if known, lets a long exposure's flat bands join
     a footprint's parts (:func:`bridge_rows`)."""
     frame = as_frame_array(image)
@@ -587,10 +593,72 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
         # takes every row of the frame, and the readers' erasures keep to
         # the rows whose stripes show.
         regions = [full_height(regions[0], blocks.height), *regions[1:]]
-    for region in regions:
-        profile = row_profile(blocks, region)
-        weighted = None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch, profile.channel)
-        yield blocks.block_col_span(region.block_cols), profile, pitch, weighted
+    room = [(0, 0)] * len(regions) if pitch is None else room_to_grow(regions, blocks.height,
+                                                                      int(round(REACH_CHIPS * pitch)))
+    for found, (above, below) in zip(regions, room):
+        found_profile, found_weighted = _profiles(blocks, found, pitch)
+        region, profile, weighted = found, found_profile, found_weighted
+        if pitch is not None and (above or below):
+            reached = _reached(blocks, found, found_profile, pitch, phy, above, below)
+            if reached is not None:
+                region, profile = reached
+                weighted = partial(stripe_weighted_profile, blocks, region, pitch, profile.channel)
+        yield RegionProfiles(blocks.block_col_span(region.block_cols), profile, pitch, weighted,
+                             partial(_same, found_profile, found_weighted))
+
+
+def _reached(blocks, found, profile: RowProfile, pitch: float, phy: PhyFormat, above: int, below: int):
+    """``found`` and its ``profile`` with the rows past its ends that its stripes reach (:mod:`decoder.reach`),
+    looking at most ``above`` and ``below`` rows out; None if they reach none."""
+    window = reach_window_rows(phy, pitch)
+    top, bottom = striped_ends(profile, pitch, window)
+    above, below = above if top else 0, below if bottom else 0
+    if not (above or below):
+        return None
+    looked_at = with_end_rows(blocks, profile, found, above, below)
+    above, below = striped_reach(looked_at, found.rows, pitch, window)
+    if not (above or below):
+        return None
+    region = extended(found, above, below)
+    return region, profile_rows(looked_at, region.rows)
+
+
+class RegionProfiles(NamedTuple):
+    """One LED region's profiles, as :func:`_region_profiles` yields them.
+
+    Attributes
+    ----------
+    cols : slice
+        The region's frame columns.
+    profile : RowProfile
+        Row means over the rows read: the region's, and the rows past its
+        ends that its stripes reach (:mod:`decoder.reach`).
+    pitch : float or None
+        Nominal rows per chip.
+    weighted : callable or None
+        Gives the same rows' :func:`decoder.profile.stripe_weighted_profile`.
+    as_found : callable
+        Gives ``(profile, weighted)`` of the rows the region tests found,
+        before they were grown for reading: what the stripe rows are
+        measured on (:func:`inspect_frame`).
+    """
+
+    cols: slice
+    profile: RowProfile
+    pitch: float | None
+    weighted: Callable | None
+    as_found: Callable
+
+
+def _profiles(blocks, region, pitch: float | None):
+    """A region's row profile, and a callable giving its stripe-weighted profile (None without a pitch)."""
+    profile = row_profile(blocks, region)
+    return profile, None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch, profile.channel)
+
+
+def _same(profile, weighted):
+    """The pair as given: the profiles of a region read over its found rows only."""
+    return profile, weighted
 
 
 def frame_rows_per_chip(profiles: Iterable[RowProfile], phy: PhyFormat) -> float | None:
@@ -650,13 +718,21 @@ def inspect_frame(
     for the stripe rows, even where decoding did not need it, so it costs
     more than :func:`decode_frame`.
     """
-    options = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
-               "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
+    options: dict[str, Any] = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
+                               "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     views = []
-    for index, (cols, profile, pitch, weighted) in enumerate(_region_profiles(image, phy, clock_hz, row_time_s, block_px,
-                                                                              max_regions, options["exposure_rows"])):
+    for index, (cols, profile, pitch, weighted, as_found) in enumerate(_region_profiles(
+            image, phy, clock_hz, row_time_s, block_px, max_regions, options["exposure_rows"])):
         sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted,
                                                     measure_span=True, **options)
+        found, found_weighted = as_found()
+        if found is not profile:
+            # The stripe rows are measured on the rows the region tests
+            # found: rows read beyond them for a PHY-SDU's ends change the
+            # profile's local levels near its ends, not where the LED's
+            # stripes show.
+            seen = _decode_profile_levels(found, phy, pitch, region=index, weighted=found_weighted,
+                                          measure_span=True, **options)[2]
         rows = slice(profile.first_row, profile.first_row + len(profile))
         views.append(RegionView(rows, cols, profile, None if levels is None else levels.threshold, tuple(sdus), seen))
     return views

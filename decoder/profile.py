@@ -83,18 +83,22 @@ def channel_profiles(image: BlockImage, region: Region) -> tuple[np.ndarray, np.
         Standard deviation of each mean (DN).
     """
     cols = region_columns(image, region)
-    weights = region.weights
+    values, counts = _weighted_means(cols, region.weights)
+    inside = region.weights > 0
+    floor = INTEGER_NOISE_FLOOR if image.integer else 1e-6 * max(1.0, float(np.max(np.abs(values))))
+    sigma = np.array([max(horizontal_noise(cols[:, :, c], mask=inside), floor) for c in range(cols.shape[2])])
+    noise = sigma[None, :] / np.sqrt(counts)[:, None]
+    return values, noise
+
+
+def _weighted_means(cols: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Row means over the blocks ``weights`` holds, per channel, and the blocks counted per row."""
     # Weights are 0 or 1: their float32 sums are exact counts (and a matrix
     # product takes them ten times faster than a float64 sum does).
     counts = np.maximum(weights @ np.ones(weights.shape[1], np.float32), 1.0).astype(np.float64)
     # One small matrix product per row (far faster than einsum here).
     sums = np.matmul(weights[:, None, :], cols)[:, 0, :]
-    values = sums.astype(np.float64) / counts[:, None]
-    inside = weights > 0
-    floor = INTEGER_NOISE_FLOOR if image.integer else 1e-6 * max(1.0, float(np.max(np.abs(values))))
-    sigma = np.array([max(horizontal_noise(cols[:, :, c], mask=inside), floor) for c in range(cols.shape[2])])
-    noise = sigma[None, :] / np.sqrt(counts)[:, None]
-    return values, noise
+    return sums.astype(np.float64) / counts[:, None], counts
 
 
 def stripe_contrast(values: np.ndarray, noise: np.ndarray) -> float:
@@ -367,3 +371,35 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     values = np.where(total > 0, np.sum(weights * bands, axis=1), plain)
     effective = np.where(total > 0, 1.0 / np.maximum(np.sum(weights**2, axis=1), 1e-300), n_bands) * band_px
     return RowProfile(region.rows.start, values, sigma / np.sqrt(effective), channel)
+
+
+def with_end_rows(image: BlockImage, profile: RowProfile, region: Region, above: int, below: int) -> RowProfile:
+    """``profile`` (of ``region``) with ``above`` rows over it and ``below`` under it, in its channel.
+
+    The rows added take the columns of the region's end row they adjoin
+    (:func:`decoder.region.extended`), and that row's noise: the pixel
+    noise is the region's (a few rows of narrow ends hold too few
+    horizontal neighbours to measure their own).
+    """
+    channel = 0 if profile.channel is None else profile.channel
+    strips = []
+    for rows, end in ((slice(region.rows.start - above, region.rows.start), 0),
+                      (slice(region.rows.stop, region.rows.stop + below), -1)):
+        n = rows.stop - rows.start
+        if n > 0:
+            weights = np.repeat(region.weights[end][None, :], n, axis=0)
+            values = _weighted_means(region_columns(image, Region(rows, region.block_cols, weights, 0)), weights)[0]
+            strips.append((values[:, channel], np.full(n, profile.noise[end])))
+        else:
+            strips.append((np.zeros(0), np.zeros(0)))
+    (top, top_noise), (bottom, bottom_noise) = strips
+    return RowProfile(region.rows.start - above, np.concatenate([top, profile.values, bottom]),
+                      np.concatenate([top_noise, profile.noise, bottom_noise]), profile.channel)
+
+
+def profile_rows(profile: RowProfile, rows: slice) -> RowProfile:
+    """The part of ``profile`` over the frame ``rows`` (within its own)."""
+    start = max(rows.start, profile.first_row)
+    stop = min(rows.stop, profile.first_row + len(profile))
+    part = slice(start - profile.first_row, max(start, stop) - profile.first_row)
+    return RowProfile(start, profile.values[part], profile.noise[part], profile.channel)

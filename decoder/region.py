@@ -681,3 +681,38 @@ def full_height(region: Region, height: int) -> Region:
     weights = np.repeat(columns[None, :], height, axis=0)
     weights[region.rows] = region.weights
     return Region(slice(0, height), region.block_cols, weights, region.area_blocks)
+
+
+def extended(region: Region, above: int, below: int) -> Region:
+    """The region with ``above`` rows added over its first row and ``below`` under its last.
+
+    Added rows repeat the columns of the end row they grow from.
+    """
+    if above == 0 and below == 0:
+        return region
+    weights = np.concatenate([np.repeat(region.weights[:1], above, axis=0), region.weights,
+                              np.repeat(region.weights[-1:], below, axis=0)])
+    rows = slice(region.rows.start - above, region.rows.stop + below)
+    return Region(rows, region.block_cols, weights, region.area_blocks)
+
+
+def _shares_columns(a: Region, b: Region) -> bool:
+    return a.block_cols.start < b.block_cols.stop and b.block_cols.start < a.block_cols.stop
+
+
+def room_to_grow(regions: list[Region], height: int, rows: int) -> list[tuple[int, int]]:
+    """Rows each region may grow (above, below): at most ``rows``, within the frame's ``height``,
+    and at most half the gap to another region in shared columns (two LEDs one above the other
+    share the rows between them, not each other's stripes)."""
+    room = []
+    for region in regions:
+        above, below = min(rows, region.rows.start), min(rows, height - region.rows.stop)
+        for other in regions:
+            if other is region or not _shares_columns(region, other):
+                continue
+            if other.rows.stop <= region.rows.start:
+                above = min(above, (region.rows.start - other.rows.stop) // 2)
+            elif other.rows.start >= region.rows.stop:
+                below = min(below, (other.rows.start - region.rows.stop) // 2)
+        room.append((above, below))
+    return room

@@ -155,7 +155,7 @@ def test_rendered_frames_give_their_pitch_and_decode_as_with_it(scene_name, over
     settings = settings_from_scene(scene)
     true = 1.0 / (settings.clock_hz * settings.row_time_s)
     for frame in iter_frames(scene, 2):
-        profiles = [profile for _, profile, _, _ in _region_profiles(frame.image, settings.phy, None, None, 16, 4)]
+        profiles = [read.profile for read in _region_profiles(frame.image, settings.phy, None, None, 16, 4)]
         assert frame_rows_per_chip(profiles, settings.phy) == pytest.approx(true, rel=0.02)
         known = decode_frame(frame.image, settings.phy, clock_hz=settings.clock_hz, row_time_s=settings.row_time_s)
         unknown = decode_frame(frame.image, settings.phy)
