@@ -28,10 +28,12 @@ stay those of the rows found, as the emitter was fitted to them.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy.special import gammainccinv
 
-from decoder.profile import RowProfile
+from decoder.profile import RowProfile, profile_rows
 
 # Chips past each end of the rows found at most looked at (the rows whose
 # profile is computed to find the reach): more than the 9 chips the block
@@ -67,9 +69,10 @@ def striped_rows(profile: RowProfile, rows_per_chip: float, window_rows: int) ->
     z2 = (values[lag:] - values[:-lag]) ** 2 / variance
     box = np.ones(window_rows)
     sums = np.convolve(z2, box, mode="same")
-    # Near the ends a window holds fewer differences.
-    counts = np.convolve(np.ones(z2.size), box, mode="same")
-    over = sums > noise_sum_threshold(counts, lag)
+    # Near the ends a window holds fewer differences: at most a window's
+    # worth of distinct counts, whose thresholds are computed once.
+    counts = np.rint(np.convolve(np.ones(z2.size), box, mode="same")).astype(np.int64)
+    over = sums > _thresholds(window_rows, lag)[counts]
     # The difference at r spans rows r to r + lag: it marks their middle,
     # and the rows at the ends no middle falls on take the nearest mark.
     offset = lag // 2
@@ -77,6 +80,14 @@ def striped_rows(profile: RowProfile, rows_per_chip: float, window_rows: int) ->
     striped[:offset] = over[0]
     striped[offset + over.size :] = over[-1]
     return striped
+
+
+@lru_cache(maxsize=64)
+def _thresholds(window_rows: int, lag: int) -> np.ndarray:
+    """:func:`noise_sum_threshold` of 0 to ``window_rows`` differences, by count (read-only)."""
+    thresholds = noise_sum_threshold(np.arange(window_rows + 1), lag)
+    thresholds.flags.writeable = False
+    return thresholds
 
 
 def noise_sum_threshold(counts: np.ndarray, lag: int) -> np.ndarray:
@@ -100,23 +111,33 @@ def striped_ends(profile: RowProfile, rows_per_chip: float, window_rows: int) ->
 
     Where they do not, the LED's stripes end inside the rows found, and no
     row past that end is worth reading (so its profile is not computed).
+    Only the rows the two windows need are looked at.
     """
-    striped = striped_rows(profile, rows_per_chip, window_rows)
-    if not striped.any():
-        return False, False
-    half = min(window_rows // 2, len(profile) - 1)
-    return bool(striped[half]), bool(striped[len(profile) - 1 - half])
+    half, n = window_rows // 2, len(profile)
+    if n <= 4 * window_rows:
+        striped = striped_rows(profile, rows_per_chip, window_rows)
+        return (bool(striped[min(half, n - 1)]), bool(striped[max(n - 1 - half, 0)])) if n else (False, False)
+    first, last = profile.first_row, profile.first_row + n
+    top = striped_rows(profile_rows(profile, slice(first, first + 2 * window_rows)), rows_per_chip, window_rows)
+    bottom = striped_rows(profile_rows(profile, slice(last - 2 * window_rows, last)), rows_per_chip, window_rows)
+    return bool(top[half]), bool(bottom[-1 - half])
 
 
 def striped_reach(profile: RowProfile, found_rows: slice, rows_per_chip: float, window_rows: int) -> tuple[int, int]:
     """Rows (above, below) past ``found_rows`` (frame rows) over which ``profile`` still shows stripes.
 
     The striped rows (:func:`striped_rows`) that run on without a break
-    from each end of the rows found, within the profile.
+    from each end of the rows found, within the profile; each end's rows
+    are looked at with a window's rows of the found ones for context.
     """
-    striped = striped_rows(profile, rows_per_chip, window_rows)
-    first, stop = found_rows.start - profile.first_row, found_rows.stop - profile.first_row
-    return _reach(striped[:first][::-1], window_rows), _reach(striped[stop:], window_rows)
+    start, stop = profile.first_row, profile.first_row + len(profile)
+    above = found_rows.start - start
+    below = stop - found_rows.stop
+    top = striped_rows(profile_rows(profile, slice(start, found_rows.start + window_rows)), rows_per_chip,
+                       window_rows)[:above] if above > 0 else np.zeros(0, dtype=bool)
+    bottom = striped_rows(profile_rows(profile, slice(found_rows.stop - window_rows, stop)), rows_per_chip,
+                          window_rows)[-below:] if below > 0 else np.zeros(0, dtype=bool)
+    return _reach(top[::-1], window_rows), _reach(bottom, window_rows)
 
 
 def _reach(striped: np.ndarray, window_rows: int) -> int:
