@@ -128,14 +128,17 @@ def striped_reach(profile: RowProfile, found_rows: slice, rows_per_chip: float, 
 
     The striped rows (:func:`striped_rows`) that run on without a break
     from each end of the rows found, within the profile; each end's rows
-    are looked at with a window's rows of the found ones for context.
+    are looked at with two windows' rows of the found ones for context.
     """
     start, stop = profile.first_row, profile.first_row + len(profile)
     above = found_rows.start - start
     below = stop - found_rows.stop
-    top = striped_rows(profile_rows(profile, slice(start, found_rows.start + window_rows)), rows_per_chip,
+    # Two windows of context: every window centred on a row looked at lies
+    # inside, and the part is longer than striped_rows's least.
+    context = 2 * window_rows
+    top = striped_rows(profile_rows(profile, slice(start, found_rows.start + context)), rows_per_chip,
                        window_rows)[:above] if above > 0 else np.zeros(0, dtype=bool)
-    bottom = striped_rows(profile_rows(profile, slice(found_rows.stop - window_rows, stop)), rows_per_chip,
+    bottom = striped_rows(profile_rows(profile, slice(found_rows.stop - context, stop)), rows_per_chip,
                           window_rows)[-below:] if below > 0 else np.zeros(0, dtype=bool)
     return _reach(top[::-1], window_rows), _reach(bottom, window_rows)
 

@@ -171,3 +171,15 @@ def test_background_above_a_small_led_is_not_read_as_chips():
     led_first = frame.truth["led_rows"][0]
     pitch = 1.0 / (settings.clock_hz * settings.row_time_s)
     assert all(d.first_row_f >= led_first - pitch for d in decoded(frame, settings))
+
+
+@pytest.mark.parametrize("above, below", [(0, 1), (1, 0), (2, 3), (13, 14), (40, 72)])
+def test_the_reach_is_that_of_the_whole_profiles_flags(above, below):
+    """striped_reach looks only at the rows near the ends: it gives what the
+    flags of the whole profile give, down to a reach of one row."""
+    values = np.concatenate([chips_profile(60, 6.0, seed=9), np.random.default_rng(10).normal(0.0, NOISE, 80)])
+    whole = profile(values, 500)
+    found = slice(500 + above, 500 + values.size - below)
+    flags = striped_rows(whole, PITCH, WINDOW)
+    expected = (reach._reach(flags[:above][::-1], WINDOW), reach._reach(flags[values.size - below:], WINDOW))
+    assert striped_reach(whole, found, PITCH, WINDOW) == expected
