@@ -596,15 +596,16 @@ def _region_profiles(image, phy: PhyFormat, clock_hz, row_time_s, block_px: int,
     room = [(0, 0)] * len(regions) if pitch is None else room_to_grow(regions, blocks.height,
                                                                       int(round(REACH_CHIPS * pitch)))
     for found, (above, below) in zip(regions, room):
-        found_profile, found_weighted = _profiles(blocks, found, pitch)
+        found_profile = row_profile(blocks, found)
+        found_weighted = _weighted(blocks, found, pitch, found_profile.channel)
         region, profile, weighted = found, found_profile, found_weighted
         if pitch is not None and (above or below):
             reached = _reached(blocks, found, found_profile, pitch, phy, above, below)
             if reached is not None:
                 region, profile = reached
-                weighted = partial(stripe_weighted_profile, blocks, region, pitch, profile.channel)
+                weighted = _weighted(blocks, region, pitch, profile.channel)
         yield RegionProfiles(blocks.block_col_span(region.block_cols), profile, pitch, weighted,
-                             partial(_same, found_profile, found_weighted))
+                             found_profile, found_weighted)
 
 
 def _reached(blocks, found, profile: RowProfile, pitch: float, phy: PhyFormat, above: int, below: int):
@@ -637,28 +638,25 @@ class RegionProfiles(NamedTuple):
         Nominal rows per chip.
     weighted : callable or None
         Gives the same rows' :func:`decoder.profile.stripe_weighted_profile`.
-    as_found : callable
-        Gives ``(profile, weighted)`` of the rows the region tests found,
-        before they were grown for reading: what the stripe rows are
-        measured on (:func:`inspect_frame`).
+    found_profile : RowProfile
+        Row means over the rows the region tests found, before the reach:
+        what the stripe rows are measured on (:func:`inspect_frame`);
+        ``profile`` itself where the reach added none.
+    found_weighted : callable or None
+        As ``weighted``, for those rows.
     """
 
     cols: slice
     profile: RowProfile
     pitch: float | None
     weighted: Callable | None
-    as_found: Callable
+    found_profile: RowProfile
+    found_weighted: Callable | None
 
 
-def _profiles(blocks, region, pitch: float | None):
-    """A region's row profile, and a callable giving its stripe-weighted profile (None without a pitch)."""
-    profile = row_profile(blocks, region)
-    return profile, None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch, profile.channel)
-
-
-def _same(profile, weighted):
-    """The pair as given: the profiles of a region read over its found rows only."""
-    return profile, weighted
+def _weighted(blocks, region, pitch: float | None, channel: int | None) -> Callable | None:
+    """A callable giving the region's stripe-weighted profile in ``channel``; None without a pitch."""
+    return None if pitch is None else partial(stripe_weighted_profile, blocks, region, pitch, channel)
 
 
 def frame_rows_per_chip(profiles: Iterable[RowProfile], phy: PhyFormat) -> float | None:
@@ -721,11 +719,10 @@ def inspect_frame(
     options: dict[str, Any] = {"frame_index": frame_index, "include_failed": True, "include_truncated": False,
                                "min_contrast": MIN_CONTRAST_SIGMA, "exposure_rows": exposure_rows(exposure_s, row_time_s)}
     views = []
-    for index, (cols, profile, pitch, weighted, as_found) in enumerate(_region_profiles(
+    for index, (cols, profile, pitch, weighted, found, found_weighted) in enumerate(_region_profiles(
             image, phy, clock_hz, row_time_s, block_px, max_regions, options["exposure_rows"])):
         sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted,
                                                     measure_span=True, **options)
-        found, found_weighted = as_found()
         if found is not profile:
             # The stripe rows are measured on the rows the region tests
             # found: rows read beyond them for a PHY-SDU's ends change the

@@ -376,25 +376,25 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
 def with_end_rows(image: BlockImage, profile: RowProfile, region: Region, above: int, below: int) -> RowProfile:
     """``profile`` (of ``region``) with ``above`` rows over it and ``below`` under it, in its channel.
 
-    The rows added take the columns of the region's end row they adjoin
-    (:func:`decoder.region.extended`), and that row's noise: the pixel
+    The rows added are those :func:`decoder.region.extended` adds (each
+    takes the columns of the end row it adjoins), averaged without copying
+    the region's own weights; they carry that end row's noise: the pixel
     noise is the region's (a few rows of narrow ends hold too few
     horizontal neighbours to measure their own).
     """
     channel = 0 if profile.channel is None else profile.channel
-    strips = []
-    for rows, end in ((slice(region.rows.start - above, region.rows.start), 0),
-                      (slice(region.rows.stop, region.rows.stop + below), -1)):
-        n = rows.stop - rows.start
-        if n > 0:
-            weights = np.repeat(region.weights[end][None, :], n, axis=0)
-            values = _weighted_means(region_columns(image, Region(rows, region.block_cols, weights, 0)), weights)[0]
-            strips.append((values[:, channel], np.full(n, profile.noise[end])))
-        else:
-            strips.append((np.zeros(0), np.zeros(0)))
-    (top, top_noise), (bottom, bottom_noise) = strips
+
+    def added(rows: slice, end: int) -> np.ndarray:
+        if rows.stop == rows.start:
+            return np.zeros(0)
+        weights = np.repeat(region.weights[[end]], rows.stop - rows.start, axis=0)
+        return _weighted_means(region_columns(image, Region(rows, region.block_cols, weights, 0)), weights)[0][:, channel]
+
+    top = added(slice(region.rows.start - above, region.rows.start), 0)
+    bottom = added(slice(region.rows.stop, region.rows.stop + below), -1)
     return RowProfile(region.rows.start - above, np.concatenate([top, profile.values, bottom]),
-                      np.concatenate([top_noise, profile.noise, bottom_noise]), profile.channel)
+                      np.concatenate([np.full(above, profile.noise[0]), profile.noise, np.full(below, profile.noise[-1])]),
+                      profile.channel)
 
 
 def profile_rows(profile: RowProfile, rows: slice) -> RowProfile:
