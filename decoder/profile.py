@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
+from decoder.footprint import FOOTPRINT_LEVEL_ROWS, FOOTPRINT_FILL_CHIPS, block_column_levels, footprint_weights
 from decoder.kernels import column_means_u8, frame_words
 from decoder.order_stats import median, percentiles
 from decoder.region import COMMON_BAND_BLOCKS, BlockImage, Region, band_means, horizontal_noise, stripe_highpass
@@ -331,7 +332,9 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     (:func:`stripe_band_weights`). The level of a row then depends on
     which bands carry it, slowly along the profile; a detector that fits
     its levels along the profile (:mod:`decoder.equalise`) reads it,
-    thresholding need not.
+    thresholding need not. Where the level image tells the LED's columns
+    of a band from the background's (a footprint's edge crossing it),
+    only those columns are read (:mod:`decoder.footprint`).
 
     Parameters
     ----------
@@ -364,12 +367,14 @@ def stripe_weighted_profile(image: BlockImage, region: Region, rows_per_chip: fl
     # Quantisation of a band's row mean (a uniform error of 1/12 DN² per pixel).
     floor = 1.0 / (12.0 * band_px) if image.integer else 1e-12 * max(1.0, float(np.max(np.abs(bands)))) ** 2
     weights = stripe_band_weights(bands, rows_per_chip, floor)
-    total = weights.sum(axis=1)
-    if not np.any(total > 0):
+    if not np.any(weights.sum(axis=1) > 0):
         return None
-    plain = bands.mean(axis=1)
-    values = np.where(total > 0, np.sum(weights * bands, axis=1), plain)
-    effective = np.where(total > 0, 1.0 / np.maximum(np.sum(weights**2, axis=1), 1e-300), n_bands) * band_px
+    means, levels = block_column_levels(crop, image.factor, n_bands * COMMON_BAND_BLOCKS)
+    columns = footprint_weights(weights, levels, sigma / np.sqrt(image.factor * FOOTPRINT_LEVEL_ROWS),
+                                int(np.ceil(FOOTPRINT_FILL_CHIPS * rows_per_chip)))
+    total = columns.sum(axis=1)
+    values = np.where(total > 0, np.sum(columns * means, axis=1), bands.mean(axis=1))
+    effective = np.where(total > 0, image.factor / np.maximum(np.sum(columns**2, axis=1), 1e-300), n_bands * band_px)
     return RowProfile(region.rows.start, values, sigma / np.sqrt(effective), channel)
 
 
