@@ -58,6 +58,7 @@ FOOTPRINT_TOLD_FRACTION = 0.9
 # PHY-SDU's runs of equal chips.
 FOOTPRINT_FILL_CHIPS = 6.0
 
+
 def block_column_levels(crop: np.ndarray, block_px: int, n_blocks: int, level_rows: int = FOOTPRINT_LEVEL_ROWS):
     """Row means of each block column of ``crop`` and those means averaged down ``level_rows`` rows.
 
@@ -114,7 +115,7 @@ def footprint_weights(band_weights: np.ndarray, levels: np.ndarray, level_noise:
     band_weights : ndarray of float64, shape (n_rows, n_bands)
         Non-negative; each row sums to 1 or is all 0
         (:func:`decoder.profile.stripe_band_weights`).
-    levels : ndarray of float64, shape (n_rows, n_bands · k)
+    levels : ndarray of float, shape (n_rows, n_bands · k)
         Level of each block column, ``k`` to a band (DN,
         :func:`block_column_levels`).
     level_noise : float
@@ -156,6 +157,7 @@ def footprint_weights(band_weights: np.ndarray, levels: np.ndarray, level_noise:
 
 
 def _rows_summing_to_one(weights: np.ndarray) -> np.ndarray:
+    # As decoder.profile.rows_summing_to_one, which imports this module.
     total = weights.sum(axis=1, keepdims=True)
     return np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
 
