@@ -135,7 +135,8 @@ def footprint_weights(band_weights: np.ndarray, levels: np.ndarray, level_noise:
     per_band = levels.shape[1] // n_bands
     band_levels = levels.reshape(n_rows, n_bands, per_band).mean(axis=2)
     background = background_levels(band_levels, band_weights <= 0)
-    known = np.isfinite(background) & (band_weights.sum(axis=1) > 0)
+    weighted = band_weights.sum(axis=1) > 0
+    known = np.isfinite(background) & weighted
     background = np.where(known, background, 0.0)
     # A band of weight, or beside one: the stripes' weights are smoothed
     # over many rows and may fall a band short of the edge.
@@ -148,16 +149,16 @@ def footprint_weights(band_weights: np.ndarray, levels: np.ndarray, level_noise:
     midpoint, side = 0.5 * (striped + background), np.sign(striped - background)
     led = near & ((levels - midpoint[:, None]) * side[:, None] > 0)
     chosen = np.repeat(band_weights / per_band, per_band, axis=1)
-    if np.count_nonzero(told) < FOOTPRINT_TOLD_FRACTION * np.count_nonzero(band_weights.sum(axis=1) > 0):
-        return _rows_summing_to_one(chosen)
+    if np.count_nonzero(told) < FOOTPRINT_TOLD_FRACTION * np.count_nonzero(weighted):
+        return rows_summing_to_one(chosen)
     source = nearest_told(told, int(fill_rows))
     taken = source >= 0
     chosen[taken] = led[source[taken]]
-    return _rows_summing_to_one(chosen)
+    return rows_summing_to_one(chosen)
 
 
-def _rows_summing_to_one(weights: np.ndarray) -> np.ndarray:
-    # As decoder.profile.rows_summing_to_one, which imports this module.
+def rows_summing_to_one(weights: np.ndarray) -> np.ndarray:
+    """Non-negative weights (n_rows, n) scaled so that each row sums to 1; rows of zeros stay 0."""
     total = weights.sum(axis=1, keepdims=True)
     return np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
 

@@ -17,7 +17,8 @@ import cv2
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 
-from decoder.footprint import FOOTPRINT_LEVEL_ROWS, FOOTPRINT_FILL_CHIPS, block_column_levels, footprint_weights
+from decoder.footprint import (FOOTPRINT_FILL_CHIPS, FOOTPRINT_LEVEL_ROWS, block_column_levels, footprint_weights,
+                               rows_summing_to_one)
 from decoder.kernels import column_means_u8, frame_words
 from decoder.order_stats import median, percentiles
 from decoder.region import COMMON_BAND_BLOCKS, BlockImage, Region, band_means, horizontal_noise, stripe_highpass
@@ -295,12 +296,6 @@ def stripe_band_weights(bands: np.ndarray, rows_per_chip: float, variance_floor:
             return np.zeros(bands.shape)
         weights = rows_summing_to_one(raw)
     return smooth_weights(weights, windows[0][0])
-
-
-def rows_summing_to_one(weights: np.ndarray) -> np.ndarray:
-    """Non-negative weights (n_rows, n_bands) scaled so that each row sums to 1; rows of zeros stay 0."""
-    total = weights.sum(axis=1, keepdims=True)
-    return np.divide(weights, total, out=np.zeros_like(weights), where=total > 0)
 
 
 def smooth_weights(weights: np.ndarray, window_rows: int) -> np.ndarray:
