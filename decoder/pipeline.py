@@ -2,7 +2,8 @@
 
 Stages (one module each): :mod:`decoder.region` (LED footprints),
 :mod:`decoder.profile` (row means), :mod:`decoder.binarize` (local
-threshold, erasures), :mod:`decoder.timing` (clock recovery) and
+threshold, erasures), :mod:`decoder.timing` (clock recovery),
+:mod:`decoder.edges` (the rows the LED surely shows) and
 :mod:`decoder.framing` (SYNC, line code, check).
 """
 
@@ -20,7 +21,8 @@ from rollsim.protocol import PhyFormat, max_run_length
 from rollsim.protocol.linecode import chips_per_symbol
 from rollsim.protocol.frames import frame_index_from_name
 
-from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile, confident_on_span
+from decoder.binarize import MIN_CONTRAST_SIGMA, Binarized, binarize_profile
+from decoder.edges import SPAN_TOLERANCE_ROWS, led_edges
 from decoder.equalise import (MAX_EXPOSURE_CHIPS, MIN_MODULATION_SIGMA, WEAK_MODULATION_SIGMA, detect_chips,
                               stepped_ends)
 from decoder.framing import OK, TRUNCATED, SduCandidates, decode_chip_stream, merge_readings
@@ -46,13 +48,8 @@ from decoder.timing import (
 # Closing height when the chip pitch is unknown: above the longest OFF run
 # (4 chips of 4B6B) up to ~20 rows per chip.
 DEFAULT_CLOSE_ROWS = 100
-# An edge run longer or shorter than a whole number of chips by more than
-# this (chips) is taken as cut by the footprint's edge.
-CUT_RUN_OFF_GRID_CHIPS = 0.2
 # Least rows of a profile worth binarising: a few chips at the least pitch.
 MIN_PROFILE_ROWS = 8
-# Tolerance (rows) of the LED's row span (see timing.CUT_TOLERANCE_ROWS).
-SPAN_TOLERANCE_ROWS = 0.5
 
 
 def longest_run_chips(phy: PhyFormat) -> int:
@@ -144,52 +141,6 @@ def binarise_at_pitch(profile: RowProfile, phy: PhyFormat, rows_per_chip: float,
     return levels, runs
 
 
-def led_edges(runs: Runs, levels: Binarized, pitch: float):
-    """Where the LED is surely seen, and which runs its edges may cut.
-
-    The span runs from the first to the last ON run that clearly reaches the
-    ON level (:func:`decoder.binarize.confident_on_span`), and on over a
-    whole-chip OFF run that a rising edge closes; rows outside may be
-    background read as bits. The first and last of these ON runs may be
-    cut by the footprint's edge although they look whole: one that is not a
-    whole number of chips long is treated as cut, so its chips are laid
-    from its inner edge.
-
-    Returns
-    -------
-    (cut_left, cut_right, span) or None
-        Boolean arrays over runs, and the (first, last) row a whole PHY-SDU
-        must lie in (profile coordinates); None if the LED is never
-        clearly ON.
-    """
-    seen = confident_on_span(levels.level, levels.q)
-    if seen is None:
-        return None
-    first_on = np.searchsorted(runs.bounds, seen[0], side="right") - 1
-    last_on = np.searchsorted(runs.bounds, seen[1], side="right") - 1
-    on_runs = np.flatnonzero(runs.values == 1)
-    on_runs = on_runs[(on_runs >= first_on) & (on_runs <= last_on)]
-    if on_runs.size == 0:
-        return None
-    first, last = on_runs[0], on_runs[-1]
-    chips = runs.lengths / pitch
-    off_grid = np.abs(chips - np.rint(chips)) > CUT_RUN_OFF_GRID_CHIPS
-    cut_left = np.zeros(runs.values.size, dtype=bool)
-    cut_right = np.zeros(runs.values.size, dtype=bool)
-    cut_left[first] = off_grid[first]
-    cut_right[last] = off_grid[last]
-    end = last
-    # A PHY-SDU ending in OFF chips ends at the rising edge of the next SYNC,
-    # whose ON run the footprint's edge may cut too short to be confident.
-    # The OFF run is still the LED's if it is whole chips between two real
-    # edges, the second rising into an ON run.
-    after = last + 2
-    if after < runs.values.size and runs.values[last + 1] == 0 and runs.values[after] == 1 and not off_grid[last + 1]:
-        end = last + 1
-    span = (runs.bounds[first] - SPAN_TOLERANCE_ROWS, runs.bounds[end + 1] + SPAN_TOLERANCE_ROWS)
-    return cut_left, cut_right, span
-
-
 # Exposures longer than this many chips are decoded by sequence detection
 # (decoder.equalise) only: thresholding reads isolated chips up to about
 # 1.4 chips but from about one chip on it corrupts many (43 % ok at exactly
@@ -213,7 +164,7 @@ def equalised_chips(profile: RowProfile, phy: PhyFormat, rows_per_chip: float, e
 
     The span runs from the first to the last chip decided ON with
     confidence (as thresholding's runs from the first to the last confident
-    ON run, :func:`led_edges`): past the LED's last rows an OFF chip looks
+    ON run, :func:`decoder.edges.led_edges`): past the LED's last rows an OFF chip looks
     like the background, so the chips there are not the LED's to claim.
     Rows whose stripes stand out of the noise by
     :data:`~decoder.equalise.WEAK_MODULATION_SIGMA` are read; those that
@@ -320,9 +271,9 @@ def decode_profile(
     return _decode_profile_levels(profile, phy, rows_per_chip, **options)[0]
 
 
-def _thresholded_candidates(runs: Runs, levels: Binarized, pitch: float, phy: PhyFormat):
-    """PHY-SDU candidates of thresholded levels, and the rows the LED is surely seen in; (None, None) if never."""
-    edges = led_edges(runs, levels, pitch)
+def _thresholded_candidates(profile: RowProfile, runs: Runs, levels: Binarized, pitch: float, phy: PhyFormat):
+    """PHY-SDU candidates of a profile's thresholded levels, and the rows the LED is surely seen in; (None, None) if never."""
+    edges = led_edges(runs, levels, pitch, profile.values, profile.noise)
     if edges is None:
         return None, None
     cut_left, cut_right, span = edges
@@ -426,7 +377,7 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
     long_exposure = exposure_rows is not None and (fine or exposure_rows > LONG_EXPOSURE_CHIPS * pitch)
     found, span = None, None
     if not long_exposure and runs is not None and levels is not None:
-        found, span = _thresholded_candidates(runs, levels, pitch, phy)
+        found, span = _thresholded_candidates(profile, runs, levels, pitch, phy)
     sdu_rows = phy.sdu_chips * pitch
     second_look = exposure_rows is not None and (long_exposure or _worth_a_second_look(found, len(profile), pitch, phy.sdu_chips))
     # (Not a second look on a profile holding a whole PHY-SDU: thresholding read every one.)
