@@ -51,11 +51,14 @@ class Binarized:
     threshold : ndarray of float64, shape (n,)
         The midpoint of the envelopes each row was compared with, in the
         profile's units.
+    half_gap : ndarray of float64, shape (n,)
+        Half the gap between the envelopes (profile's units): one unit of q.
     """
 
     level: np.ndarray
     q: np.ndarray
     threshold: np.ndarray
+    half_gap: np.ndarray
 
     @property
     def valid(self) -> np.ndarray:
@@ -196,7 +199,7 @@ def binarize_profile(
     """
     values = np.asarray(values, dtype=np.float64)
     if values.size == 0:
-        return Binarized(np.zeros(0, np.int8), np.zeros(0), np.zeros(0))
+        return Binarized(np.zeros(0, np.int8), np.zeros(0), np.zeros(0), np.zeros(0))
     smooth = smooth_profile(values, smooth_rows)
     upper, lower = envelopes(smooth, window_rows)
     half_gap = 0.5 * (upper - lower)
@@ -205,4 +208,4 @@ def binarize_profile(
     level = hysteresis_levels(q, valid, hysteresis)
     if min_run_rows is not None:
         level = erase_weak_runs(level, q, MIN_RUN_MEAN_Q, min_run_rows)
-    return Binarized(level, np.where(level >= 0, q, 0.0), 0.5 * (upper + lower))
+    return Binarized(level, np.where(level >= 0, q, 0.0), 0.5 * (upper + lower), half_gap)

@@ -172,7 +172,7 @@ MAPS = (
         "paper-geometric; ambient 650 lx … 166 klx, ISO 10000 × 650 lx / ambient (background at a fixed output level)"),
     EnvelopeMap(
         "saturation", "Saturation with blooming", "effect-blooming",
-        lambda quick: _saturation([0.5, 3.0] if quick else [0.5, 0.75, 1, 1.25, 1.5, 2, 3, 4, 6, 8, 10]),
+        lambda quick: _saturation([0.5, 3.0] if quick else [0.5, 0.75, 1, 1.25, 1.3, 1.35, 1.4, 1.45, 1.5, 2, 3, 4, 6, 8, 10]),
         "on_full_wells", "ON level of the brightest pixel, full wells", True,
         "effect-blooming (paper-geometric at ISO 100, blooming with no anti-blooming drain); LED intensity scaled"),
 )
