@@ -96,7 +96,9 @@ def split_at_dips(runs: Runs, level: np.ndarray, q: np.ndarray, noise_q: np.ndar
         return runs
     stops = stops[stops > starts[0]]
     starts = starts[: stops.size]
-    keep = (stops < n) & on[starts - 1] & on[np.minimum(stops, n - 1)] & (stops - starts <= rows_per_chip)
+    # A stretch's rows are starts … stops − 1; rows starts − 1 and stops
+    # exist (a stretch at either end of the profile has no edge there).
+    keep = on[starts - 1] & on[stops] & (stops - starts <= rows_per_chip)
     starts, stops = starts[keep], stops[keep]
     if starts.size == 0:
         return runs

@@ -135,17 +135,13 @@ def binarise_at_pitch(profile: RowProfile, phy: PhyFormat, rows_per_chip: float,
         min_contrast=min_contrast,
         min_run_rows=0.5 * rows_per_chip,
     )
-    return levels, runs_at_pitch(levels, rows_per_chip)
-
-
-def runs_at_pitch(levels: Binarized, rows_per_chip: float) -> Runs:
-    """The runs of binarised levels, their edge bias corrected and glitches shorter than half a chip merged."""
-    # Before glitches are merged: under saturation a lone OFF chip can look
-    # shorter than half a chip until the edge bias is taken out.
-    return _corrected(find_runs(levels.level, levels.q), rows_per_chip)
+    return levels, _corrected(find_runs(levels.level, levels.q), rows_per_chip)
 
 
 def _corrected(runs: Runs, rows_per_chip: float) -> Runs:
+    """Runs with their edge bias corrected, then glitches shorter than half a chip merged."""
+    # Before glitches are merged: under saturation a lone OFF chip can look
+    # shorter than half a chip until the edge bias is taken out.
     return merge_glitches(correct_edge_bias(runs, edge_bias_chips(runs, rows_per_chip), rows_per_chip), rows_per_chip)
 
 

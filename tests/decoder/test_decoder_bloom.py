@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from synth import profile_from_chips
 
 from rollsim.protocol import PhyFormat
@@ -144,3 +146,19 @@ def test_effect_blooming_reads_every_fully_visible_phy_sdu_past_a_full_well(full
     assert summary["fully_visible"] > 0
     assert summary["counts"]["missed"] == summary["counts"]["corrupted"] == 0
     assert summary["counts"]["undetected_error"] == 0 and summary["false_decodes"] == 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(lengths=st.lists(st.floats(0.0, 30.0), min_size=1, max_size=40),
+       values=st.lists(st.sampled_from([-1, 0, 1]), min_size=40, max_size=40),
+       spilled=st.floats(0.0, 0.4))
+def test_without_spill_keeps_the_profiles_ends_and_the_edges_order(lengths, values, spilled):
+    bounds = -0.5 + np.concatenate([[0.0], np.cumsum(lengths)])
+    runs = Runs(bounds, np.array(values[: len(lengths)], dtype=np.int8))
+    mended = without_spill(runs, spilled)
+    assert mended.bounds[0] == bounds[0] and mended.bounds[-1] == bounds[-1]
+    assert np.all(np.diff(mended.bounds) >= 0.0)
+    # ON runs never grow; OFF runs never shrink.
+    on, off = runs.values == 1, runs.values == 0
+    assert np.all(mended.lengths[on] <= runs.lengths[on] + 1e-9)
+    assert np.all(mended.lengths[off] >= runs.lengths[off] - 1e-9)
