@@ -19,6 +19,9 @@ the span over such a final OFF run:
   frames) end in an OFF chip on row 1070 of a disk ending on row 1072;
   this reads them.
 
+The measured stripe rows (the ROI ratio's) do not take the rows a step adds:
+a lone OFF chip is no stripe, and the emitter was fitted to them.
+
 Where the face matches the background nothing in one frame shows where its
 OFF chips end, and the span stays at the last ON run. Carrying the span over
 OFF rows cannot turn a read wrong unseen: the rows are read as OFF chips,
@@ -128,9 +131,12 @@ def led_edges(runs: Runs, levels: Binarized, pitch: float, values: np.ndarray, n
 
     Returns
     -------
-    (cut_left, cut_right, span) or None
-        Boolean arrays over runs, and the (first, last) row a whole PHY-SDU
-        must lie in (profile coordinates); None if the LED is never
+    (cut_left, cut_right, span, striped) or None
+        Boolean arrays over runs; the (first, last) row a whole PHY-SDU
+        must lie in (profile coordinates); and the same without the rows a
+        level step adds, where the LED's stripes are surely seen (the
+        measured stripe rows, to which the emitter was fitted: a lone OFF
+        chip at the LED's end is no stripe). None if the LED is never
         clearly ON.
     """
     seen = confident_on_span(levels.level, levels.q)
@@ -151,18 +157,17 @@ def led_edges(runs: Runs, levels: Binarized, pitch: float, values: np.ndarray, n
     cut_right[last] = off_grid[last]
     end_row = runs.bounds[last + 1]
     following = runs.values[last + 1:]
-    if following.size and following[0] == 0:
-        if following.size > 1 and following[1] == 1:
-            # A PHY-SDU ending in OFF chips ends at the rising edge of the
-            # next SYNC, whose ON run the footprint's edge may cut too short
-            # to be confident.
-            if not off_grid[last + 1]:
-                end_row = runs.bounds[last + 2]
-        elif not np.any(following == 1):
-            face = last_face_row(values, noise, int(np.ceil(runs.bounds[last + 1])), pitch)
-            if face is not None:
-                # The final chip counts as seen if the face shows over at
-                # least half of it.
-                end_row = max(end_row, face + 0.5 + 0.5 * pitch)
-    span = (runs.bounds[first] - SPAN_TOLERANCE_ROWS, end_row + SPAN_TOLERANCE_ROWS)
-    return cut_left, cut_right, span
+    if following.size > 1 and following[0] == 0 and following[1] == 1 and not off_grid[last + 1]:
+        # A PHY-SDU ending in OFF chips ends at the rising edge of the next
+        # SYNC, whose ON run the footprint's edge may cut too short to be
+        # confident.
+        end_row = runs.bounds[last + 2]
+    striped = (runs.bounds[first] - SPAN_TOLERANCE_ROWS, end_row + SPAN_TOLERANCE_ROWS)
+    if following.size and following[0] == 0 and not np.any(following == 1):
+        face = last_face_row(values, noise, int(np.ceil(runs.bounds[last + 1])), pitch)
+        if face is not None:
+            # The final chip counts as seen if the face shows over at least
+            # half of it.
+            end_row = max(end_row, face + 0.5 + 0.5 * pitch)
+    span = (striped[0], end_row + SPAN_TOLERANCE_ROWS)
+    return cut_left, cut_right, span, striped

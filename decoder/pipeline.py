@@ -292,12 +292,12 @@ def decode_profile(
 
 
 def _thresholded_candidates(profile: RowProfile, runs: Runs, levels: Binarized, pitch: float, phy: PhyFormat):
-    """PHY-SDU candidates of a profile's thresholded levels, and the rows the LED is surely seen in; (None, None) if never."""
+    """PHY-SDU candidates of a profile's thresholded levels, and the rows its stripes are surely seen in; (None, None) if never."""
     edges = led_edges(runs, levels, pitch, profile.values, profile.noise)
     if edges is None:
         return None, None
-    cut_left, cut_right, span = edges
-    return decode_chip_stream(runs_to_chips(runs, pitch, levels.q, cut_left, cut_right), phy, span), span
+    cut_left, cut_right, span, striped = edges
+    return decode_chip_stream(runs_to_chips(runs, pitch, levels.q, cut_left, cut_right), phy, span), striped
 
 
 def _read_through_blooming(profile: RowProfile, levels: Binarized, pitch: float, phy: PhyFormat, found, span):

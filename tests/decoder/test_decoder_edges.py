@@ -6,8 +6,8 @@ from synth import profile_from_chips
 
 from rollsim.protocol import PhyFormat
 
-from decoder.edges import STEP_SIGMAS, last_face_row
-from decoder.pipeline import decode_profile
+from decoder.edges import SPAN_TOLERANCE_ROWS, STEP_SIGMAS, last_face_row, led_edges
+from decoder.pipeline import binarise_at_pitch, decode_profile
 from decoder.profile import RowProfile
 
 PHY = PhyFormat(5, 19, "crc8")
@@ -134,3 +134,14 @@ def test_paper_geometric_reads_the_phy_sdu_ending_on_its_disks_last_rows(frame, 
                          exposure_s=settings.exposure_s)
     assert any(sdu.check_ok and sdu.sequence == last["sequence"] and sdu.bits == last["bits"] for sdu in found)
     assert all(sdu.sequence != last["sequence"] or sdu.bits == last["bits"] for sdu in found if sdu.check_ok)
+
+
+def test_the_level_step_widens_the_phy_sdus_rows_but_not_the_measured_stripe_rows():
+    # The ROI ratio measures the stripe rows (the emitter was fitted to
+    # them): a lone OFF chip at the LED's end is no stripe.
+    profile = profile_over_wall(25.0, 60.0, 190.0)
+    levels, runs = binarise_at_pitch(profile, PHY, PITCH)
+    _, _, span, striped = led_edges(runs, levels, PITCH, profile.values, profile.noise)
+    last_on = int(np.flatnonzero(runs.values == 1)[-1])
+    assert striped[1] == pytest.approx(runs.bounds[last_on + 1] + SPAN_TOLERANCE_ROWS)
+    assert span[0] == striped[0] and span[1] > striped[1] + 0.5 * PITCH
