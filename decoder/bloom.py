@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from decoder.timing import MIN_BIAS_RAYLEIGH, Runs
+from decoder.timing import MIN_BIAS_RAYLEIGH, Runs, shifted_level_edges
 
 # A dip inside an ON run is an OFF chip the spill flooded in part when it
 # falls this far below the ON envelope (in q, where the envelopes are ±1)
@@ -200,13 +200,7 @@ def without_spill(runs: Runs, spilled: float) -> Runs:
     """
     if spilled <= 0.0 or runs.values.size < 2:
         return runs
-    values = runs.values
-    half = 0.5 * spilled * runs.lengths * (values == 1)
-    before, after = values[:-1], values[1:]
+    half = 0.5 * spilled * runs.lengths * (runs.values == 1)
     # Edge k lies between runs k and k + 1: a rising edge moves later by
     # the ON run after it, a falling edge earlier by the ON run before it.
-    step = np.where((before == 0) & (after == 1), half[1:], np.where((before == 1) & (after == 0), -half[:-1], 0.0))
-    bounds = runs.bounds.copy()
-    bounds[1:-1] += step
-    bounds[1:-1] = np.clip(bounds[1:-1], bounds[0], bounds[-1])
-    return Runs(np.maximum.accumulate(bounds), values)
+    return shifted_level_edges(runs, half[1:], half[:-1])

@@ -311,12 +311,19 @@ def _read_through_blooming(profile: RowProfile, levels: Binarized, pitch: float,
     if bloomed is None:
         return found, span
     second, second_span = _thresholded_candidates(profile, bloomed, levels, pitch, phy)
-    if second is None or second_span is None:
-        return found, span
+    return _joined(found, span, second, second_span, phy.sdu_chips * pitch)
+
+
+def _joined(found, span, second, second_span, sdu_rows: float):
+    """A reading and its span joined by a second one's: what only the second read (:func:`merge_readings`), and
+    the union of the spans; the second alone where the first found nothing."""
     if found is None or span is None:
         return second, second_span
-    return (merge_readings(found, second, phy.sdu_chips * pitch),
-            (min(span[0], second_span[0]), max(span[1], second_span[1])))
+    if second_span is None:
+        return found, span
+    if second is not None:
+        found = merge_readings(found, second, sdu_rows)
+    return found, (min(span[0], second_span[0]), max(span[1], second_span[1]))
 
 
 def _passed(found) -> int:
@@ -431,12 +438,7 @@ def _decode_profile_levels(profile, phy, rows_per_chip, *, frame_index, region, 
         chips, second_span, sure = equalised_chips(detect, phy, pitch, exposure_rows)
         second = None if second_span is None or measure_only else passed_or_sure(
             decode_chip_stream(chips, phy, second_span), sure)
-        if found is None or span is None:
-            found, span = second, second_span
-        elif second_span is not None:
-            if second is not None:
-                found = merge_readings(found, second, sdu_rows)
-            span = (min(span[0], second_span[0]), max(span[1], second_span[1]))
+        found, span = _joined(found, span, second, second_span, sdu_rows)
     if found is None or span is None:
         return [], levels, None
     seen = (profile.first_row + int(round(span[0])), profile.first_row + int(round(span[1])))

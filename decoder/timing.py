@@ -270,9 +270,24 @@ def correct_edge_bias(runs: Runs, beta_chips: np.ndarray, rows_per_chip: float) 
     """
     if runs.values.size < 2 or not np.any(beta_chips):
         return runs
-    before, after = runs.values[:-1], runs.values[1:]
     shift = 0.25 * (beta_chips[:-1] + beta_chips[1:]) * rows_per_chip
-    step = np.where((before == 0) & (after == 1), shift, np.where((before == 1) & (after == 0), -shift, 0.0))
+    return shifted_level_edges(runs, shift, shift)
+
+
+def shifted_level_edges(runs: Runs, later_rows: np.ndarray, earlier_rows: np.ndarray) -> Runs:
+    """Runs with each rising edge moved later and each falling edge earlier.
+
+    Parameters
+    ----------
+    runs : Runs
+        At least two runs.
+    later_rows, earlier_rows : ndarray, shape (m − 1,)
+        Per edge (edge k lies between runs k and k + 1), how far a rising
+        edge moves later and a falling edge earlier, in rows. Edges to or
+        from an erasure are cuts, not level changes, and stay.
+    """
+    before, after = runs.values[:-1], runs.values[1:]
+    step = np.where((before == 0) & (after == 1), later_rows, np.where((before == 1) & (after == 0), -earlier_rows, 0.0))
     bounds = runs.bounds.copy()
     bounds[1:-1] += step
     # A correction never reorders edges: clip into the profile and keep order.
