@@ -72,6 +72,15 @@ def _add_set_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_scheduler_options(parser: argparse.ArgumentParser) -> None:
+    """``--scheduler ADDRESS`` and the deadline of the connection to it."""
+    parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
+                        help="a running Dask scheduler, e.g. tcp://10.0.0.1:8786, instead of a local cluster")
+    parser.add_argument("--connect-timeout", metavar="SECONDS", type=float, default=None,
+                        help="how long to wait for the scheduler to answer as Dask does "
+                        "(default: $ROLLSIM_CONNECT_TIMEOUT, else 10)")
+
+
 def _add_force(parser: argparse.ArgumentParser, what: str = "an existing output file") -> None:
     parser.add_argument("--force", action="store_true", help=f"replace {what}")
 
@@ -600,6 +609,7 @@ def cmd_sweep(args) -> int:
     from tqdm import tqdm
 
     from rollsim.sweeps import run_sweep, spec_from_arguments
+    from rollsim.sweeps.engine import dashboard_link
     from rollsim.sweeps.journal import describe_progress
 
     options = {"runs": args.runs, "frames": args.frames, "channel": args.channel, "seed": args.seed,
@@ -613,7 +623,7 @@ def cmd_sweep(args) -> int:
         nonlocal bar
         state["total"] = total
         state["done"] = total - todo
-        link = getattr(client, "dashboard_link", None)
+        link = dashboard_link(client)
         if link and not args.quiet:
             print(f"rollsim: Dask dashboard: {link}", file=sys.stderr)
         bar = tqdm(total=total, initial=total - todo, unit="cell", desc=f"sweep {spec.stage}",
@@ -792,8 +802,7 @@ def _add_sweep_command(sub) -> None:
     p.add_argument("--keep-frames", action="store_true", help="run: also write each cell's PNG frames")
     p.add_argument("--seed", type=_non_negative_int, default=None, help="sweep seed (default: the scene's)")
     p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
-    p.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                   help="a running Dask scheduler, e.g. tcp://10.0.0.1:8786, instead of a local cluster")
+    _add_scheduler_options(p)
     p.add_argument("--resume", action="store_true", help="continue the sweep in DIR: only missing or failed cells run")
     _add_force(p, "a previous rollsim result in DIR")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -809,7 +818,7 @@ def _add_paper_command(sub) -> None:
     p.add_argument("--frames", type=_positive_int, default=None, help="frames per pixel setting (default 300; quick 60)")
     p.add_argument("--runs", type=_positive_int, default=None, help="runs per event setting (default 1000; quick 200)")
     p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
-    p.add_argument("--scheduler", metavar="ADDRESS", default=None, help="a running Dask scheduler instead")
+    _add_scheduler_options(p)
     _add_force(p, "a previous rollsim result in DIR")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_paper)
@@ -889,7 +898,7 @@ def _add_bench_commands(sub) -> None:
     p.add_argument("--quick", action="store_true", help="two points per map, two frames per cell (a check, not results)")
     p.add_argument("--seed", type=int, default=None, help="sweep seed of every map (default: each scene's)")
     p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
-    p.add_argument("--scheduler", metavar="ADDRESS", default=None, help="a running Dask scheduler instead")
+    _add_scheduler_options(p)
     p.add_argument("--out", metavar="DIR", default=None,
                    help="write MAP.csv and MAP.png per map, envelope.md (the boundaries) and envelope.json (all) here")
     _add_json_file(p)
@@ -947,6 +956,11 @@ def _run(args) -> int:
     if args.memory_limit is not None:
         # In the environment, so that worker processes keep to it too.
         os.environ[ENV_VAR] = str(parse_size(args.memory_limit, "--memory-limit"))
+    if getattr(args, "connect_timeout", None) is not None:
+        from rollsim.sweeps.scheduler import ENV_VAR as TIMEOUT_VAR, connect_timeout_s
+
+        # Every stage that connects (a sweep, the paper's, the envelope's) reads it there.
+        os.environ[TIMEOUT_VAR] = repr(connect_timeout_s(args.connect_timeout))
     _check_outputs(args)
     return args.func(args)
 
@@ -958,7 +972,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     from rollsim.outputs import describe_os_error
 
     args = build_parser().parse_args(argv)
-    saved_limit = os.environ.get(ENV_VAR)
+    saved_environ = {name: os.environ.get(name) for name in (ENV_VAR, "ROLLSIM_CONNECT_TIMEOUT")}
     saved_handlers = signals.install_handlers()
     try:
         return _run(args)
@@ -992,10 +1006,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return EXIT_FAILURE
     finally:
         signals.restore_handlers(saved_handlers)
-        if saved_limit is None:
-            os.environ.pop(ENV_VAR, None)
-        else:
-            os.environ[ENV_VAR] = saved_limit
+        for name, value in saved_environ.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 if __name__ == "__main__":

@@ -5,7 +5,10 @@ The command's main process turns both signals into
 :class:`KeyboardInterrupt`: worker pools kill their processes
 (:mod:`rollsim.parallel`), staging areas are removed (:mod:`rollsim.outputs`),
 and the CLI exits with ``128 + signum``. A second signal during that
-clean-up is ignored, so the clean-up finishes.
+clean-up ends the process at once with the same status: a clean-up that
+hangs (a scheduler that never answers, a network file system) never makes
+SIGKILL the only way out. What it leaves (a staging area) carries its
+owner's process id, so the next run into the same place removes it.
 
 Worker processes leave both signals to the main process (a terminal's
 Ctrl-C reaches the whole process group) and die with it, even when it is
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import os
 import signal
 import sys
 import threading
@@ -26,10 +30,19 @@ HANDLED = (signal.SIGINT, signal.SIGTERM)
 _PR_SET_PDEATHSIG = 1
 
 
+def _exit_now(signum, frame):
+    # The user asked twice: the clean-up the first signal started is given up.
+    message = f"rollsim: stopped by {signal.Signals(signum).name} again during clean-up; exiting now\n"
+    with contextlib.suppress(OSError):
+        os.write(2, message.encode())
+    os._exit(128 + signum)
+
+
 def _raise_interrupted(signum, frame):
-    # Later signals must not interrupt the clean-up this one starts.
+    # A later signal must not raise inside the clean-up this one starts
+    # (half a clean-up is worse than none); it ends the process instead.
     for sig in HANDLED:
-        signal.signal(sig, signal.SIG_IGN)
+        signal.signal(sig, _exit_now)
     raise Interrupted(signum)
 
 

@@ -9,6 +9,7 @@ import re
 import signal
 import subprocess
 import sys
+import tempfile
 
 import pyarrow.parquet as pq
 import pytest
@@ -318,7 +319,7 @@ def test_an_unreachable_scheduler_is_one_line_within_10_s(tmp_path):
         port = sock.getsockname()[1]
     result = run_rollsim("sweep", "paper-default", "--grid", "link.distance_cm=5", "--out", "out",
                          "--scheduler", f"tcp://127.0.0.1:{port}", cwd=tmp_path)
-    assert_one_error(result, 1, f"--scheduler tcp://127.0.0.1:{port}: cannot reach it within")
+    assert_one_error(result, 1, f"--scheduler tcp://127.0.0.1:{port}: nothing listens there (connection refused)")
     assert result.seconds < 10.0 + 2.0  # start-up of the command itself
 
 
@@ -366,3 +367,27 @@ def test_report_has_a_plot_per_figure_for_any_number_of_axes(tmp_path, client, g
     from rollsim.outputs import foreign_entries
 
     assert foreign_entries(tmp_path / "out") == []  # everything in it is the sweep's own
+
+
+@pytest.mark.parametrize("option", ["--grid", "--zip"])
+def test_a_key_given_twice_is_refused_not_half_dropped(tmp_path, option):
+    result = run_rollsim("sweep", "paper-default", option, "link.distance_cm=5,10", option, "link.distance_cm=20",
+                         "--out", "out", cwd=tmp_path)
+    assert_one_error(result, 2, f"{option} link.distance_cm: given twice")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_api_sweeps_a_scene_object_and_a_failed_call_leaves_no_temporary_folder(tmp_path, monkeypatch):
+    import rollsim as rs
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    scene = rs.load_scene("paper-default", overrides={"link.distance_cm": 10})
+    table = rs.sweep(scene, grid={"link.distance_cm": [5, 20]}, workers=1)
+    assert list(table["link.distance_cm"]) == [5, 20] and (table["status"] == "ok").all()
+    kept = sorted(tmp_path.iterdir())
+    assert len(kept) == 1 and kept[0].name.startswith("rollsim-sweep-")
+    with pytest.raises(RollsimError, match=r"cell 1 \(link.distance_cm=-1\)"):
+        rs.sweep(scene, grid={"link.distance_cm": [5, -1]}, workers=1)
+    with pytest.raises(RollsimError, match="nothing listens there"):
+        rs.sweep(scene, grid={"link.distance_cm": [5]}, scheduler="tcp://127.0.0.1:1")
+    assert sorted(tmp_path.iterdir()) == kept

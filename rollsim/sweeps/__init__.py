@@ -11,9 +11,8 @@ the table (:mod:`rollsim.sweeps.table`) and the report
 
 from __future__ import annotations
 
-import contextlib
+import shutil
 import tempfile
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, cast, Optional
@@ -70,6 +69,7 @@ def run_sweep(
     *,
     workers: Optional[int] = None,
     scheduler: Optional[str] = None,
+    connect_timeout_s: Optional[float] = None,
     client=None,
     resume: bool = False,
     force: bool = False,
@@ -86,6 +86,9 @@ def run_sweep(
         Size of the local Dask cluster (default: one per core).
     scheduler : str, optional
         Address of a running Dask scheduler to use instead.
+    connect_timeout_s : float, optional
+        Deadline of the connection to ``scheduler``, in seconds (default
+        10, or ``$ROLLSIM_CONNECT_TIMEOUT``).
     client : dask.distributed.Client, optional
         A client to use instead of either.
     resume : bool
@@ -105,7 +108,7 @@ def run_sweep(
         unreachable scheduler.
     """
     from rollsim.scene.bundled import resolve_scene_path
-    from rollsim.sweeps.engine import DaskEngine
+    from rollsim.sweeps.engine import BackgroundStart, DaskEngine
     from rollsim.sweeps.journal import SweepDirectory, scene_digest
 
     # The cluster starts while the cells are validated: starting workers
@@ -113,27 +116,20 @@ def run_sweep(
     # A mistake every cell shares (an unknown key) stops the sweep first.
     quick = validate_cells(spec, quick=True)
     record = {**spec.as_dict(quick.seed), "scene_sha256": scene_digest(quick.base)}
-    scene_path = resolve_scene_path(spec.scene)
-    inputs = [scene_path] if scene_path.exists() else []
+    scene_path = resolve_scene_path(spec.scene) if spec.base is None else None
+    inputs = [scene_path] if scene_path is not None and scene_path.exists() else []
     SweepDirectory.check(Path(out_dir), record, resume=resume, force=force, inputs=inputs)
-    engine = DaskEngine(workers, scheduler, spec.stage) if client is None else None
-    with ThreadPoolExecutor(1) as starter:
-        started = starter.submit(engine.start) if engine is not None else None
-        try:
-            resolved = validate_cells(spec)
-            # The output directory only once the cluster answers: an
-            # unreachable scheduler leaves nothing behind.
-            if client is not None:
-                active = client
-            else:
-                assert started is not None  # no client given: the engine was started
-                active = started.result()
-        except BaseException:
-            if started is not None and engine is not None:
-                with contextlib.suppress(Exception):
-                    started.result()
-                engine.close()
-            raise
+    engine = DaskEngine(workers, scheduler, spec.stage, connect_timeout_s) if client is None else None
+    starting = BackgroundStart(engine) if engine is not None else None
+    try:
+        resolved = validate_cells(spec)
+        # The output directory only once the cluster answers: an
+        # unreachable scheduler leaves nothing behind.
+        active = client if starting is None else starting.result()
+    except BaseException:
+        if starting is not None:
+            starting.abandon()
+        raise
     try:
         directory = SweepDirectory.open(Path(out_dir), record, resume=resume, force=force, inputs=inputs)
         try:
@@ -219,13 +215,14 @@ def _finish(directory, resolved, spec: SweepSpec, computed: int, submit=None) ->
 
 def sweep(scene: Scene, grid: Optional[dict] = None, stage: str = "analytic", *, zip: Optional[dict] = None,
           overrides=(), out=None, client=None, workers: Optional[int] = None, scheduler: Optional[str] = None,
-          resume: bool = False, force: bool = False, **options):
+          connect_timeout_s: Optional[float] = None, resume: bool = False, force: bool = False, **options):
     """Run a sweep from Python; the results as a table.
 
     Parameters
     ----------
-    scene : str or Path
-        A bundled scene name or a scene file.
+    scene : str, Path or Scene
+        A bundled scene name, a scene file, or a scene loaded with
+        :func:`rollsim.load_scene`.
     grid : dict, optional
         ``{key: VALUES}``: each key's values as text (``"5:40:5"``) or a list.
     stage : {"analytic", "simulate", "run", "envelope"}
@@ -234,10 +231,11 @@ def sweep(scene: Scene, grid: Optional[dict] = None, stage: str = "analytic", *,
     overrides : iterable of str
         ``KEY=VALUE`` overrides of the base scene.
     out : path, optional
-        Output directory; default a new temporary directory (kept).
+        Output directory; default a new temporary directory (kept when
+        the sweep finishes, removed when it fails).
     client : dask.distributed.Client, optional
         Run on this client's cluster.
-    workers, scheduler, resume, force
+    workers, scheduler, connect_timeout_s, resume, force
         As for :func:`run_sweep`.
     **options
         ``runs``, ``frames``, ``channel``, ``seed``, ``max_emissions``,
@@ -256,12 +254,29 @@ def sweep(scene: Scene, grid: Optional[dict] = None, stage: str = "analytic", *,
     >>> list(table["M"])  # doctest: +SKIP
     [3, 2]
     """
-    spec = spec_from_arguments(str(scene), grid=grid or {}, zipped=zip or {}, overrides=list(overrides), stage=stage,
-                               options=options)
-    out = Path(out) if out is not None else Path(tempfile.mkdtemp(prefix="rollsim-sweep-")) / "sweep"
-    result = run_sweep(spec, out, workers=workers, scheduler=scheduler, client=client, resume=resume, force=force)
+    source, base = _scene_source(scene)
+    spec = spec_from_arguments(source, grid=grid or {}, zipped=zip or {}, overrides=list(overrides), stage=stage,
+                               options=options, base=base)
+    made = Path(tempfile.mkdtemp(prefix="rollsim-sweep-")) if out is None else None
+    try:
+        result = run_sweep(spec, Path(out) if made is None else made / "sweep", workers=workers, scheduler=scheduler,
+                           connect_timeout_s=connect_timeout_s, client=client, resume=resume, force=force)
+    except BaseException:
+        if made is not None:  # made by this call a moment ago: nothing of the user's is in it
+            shutil.rmtree(made, ignore_errors=True)
+        raise
     table = result.to_dataframe()
     if table is None:
         return result.out_dir
     table.attrs["sweep_dir"] = str(result.out_dir)
     return table
+
+
+def _scene_source(scene) -> tuple[str, Optional[dict]]:
+    """How a sweep names ``scene``, and its data when it is a :class:`Scene` held in memory."""
+    from rollsim.scene import Scene
+    from rollsim.scene.loader import scene_to_dict
+
+    if isinstance(scene, Scene):
+        return scene.name, scene_to_dict(scene)
+    return str(scene), None

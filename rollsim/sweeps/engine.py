@@ -18,6 +18,7 @@ import contextlib
 import importlib.util
 import logging
 import math
+import threading
 from typing import Callable, Generator, Optional
 
 from distributed.diagnostics.plugin import WorkerPlugin
@@ -25,7 +26,8 @@ from distributed.diagnostics.plugin import WorkerPlugin
 from rollsim.errors import SystemFailure
 from rollsim.parallel import default_workers
 
-SCHEDULER_TIMEOUT_S = 6
+# Seconds each of a client's and a cluster's close may take.
+CLOSE_TIMEOUT_S = 5
 # Wall time a task should take (seconds) and the work a stage's cell costs,
 # to size batches: the scheduler spends ~1 ms per task.
 _TASK_TARGET_S = 0.25
@@ -103,11 +105,20 @@ class DaskEngine:
         Address of a running scheduler, instead of a local cluster.
     stage : str
         The sweep's stage, whose modules local workers import as they start.
+    connect_timeout_s : float, optional
+        Deadline of the connection to ``scheduler`` in seconds (default:
+        :func:`rollsim.sweeps.scheduler.connect_timeout_s`).
     """
 
-    def __init__(self, workers: Optional[int] = None, scheduler: Optional[str] = None, stage: str = "analytic"):
+    def __init__(self, workers: Optional[int] = None, scheduler: Optional[str] = None, stage: str = "analytic",
+                 connect_timeout_s: Optional[float] = None):
+        from rollsim.sweeps.scheduler import connect_timeout_s as resolve_timeout, parse_scheduler_address
+
         self.workers = workers
-        self.scheduler = scheduler
+        # Checked here, before any work: a mistyped address is refused at once.
+        self.address = parse_scheduler_address(scheduler) if scheduler else None
+        self.scheduler = self.address.url if self.address is not None else None
+        self.timeout_s = resolve_timeout(connect_timeout_s)
         self.stage = stage
         self.cluster = None
         self.client = None
@@ -118,36 +129,145 @@ class DaskEngine:
         Raises
         ------
         SystemFailure
-            The scheduler cannot be reached within :data:`SCHEDULER_TIMEOUT_S`
-            seconds (exit 1, one line).
+            The scheduler does not greet as Dask does within the deadline
+            (exit 1, one line naming the address and what answered).
         """
+        if self.address is not None:
+            self.client = self._connect()
+            return self.client
         from distributed import Client
 
-        if self.scheduler:
-            try:
-                self.client = Client(self.scheduler, timeout=f"{SCHEDULER_TIMEOUT_S}s", set_as_default=False)
-            except (OSError, TimeoutError, ValueError) as exc:
-                reason = " ".join(str(exc).split()) or type(exc).__name__
-                raise SystemFailure(f"--scheduler {self.scheduler}: cannot reach it within {SCHEDULER_TIMEOUT_S} s "
-                                    f"({reason[:160]})") from None
-            return self.client
         from rollsim.budget import memory_budget_bytes
 
         workers = self.workers or default_workers()
-        # The dashboard needs bokeh; without it, no dashboard and no warning.
-        dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
         self.cluster = local_cluster(workers, memory_limit=max(2**28, memory_budget_bytes() // workers),
-                                     dashboard_address=dashboard)
+                                     dashboard_address=":0" if dashboard_available() else None)
         self.client = Client(self.cluster, set_as_default=False)
         self.client.register_plugin(_WorkerSetup(STAGE_MODULES[self.stage]))
         return self.client
 
+    def _connect(self):
+        """A client of the user's scheduler, probed first and made within the deadline."""
+        from distributed import Client
+
+        from rollsim.sweeps.scheduler import probe_scheduler
+
+        assert self.address is not None
+        probe_scheduler(self.address, self.timeout_s)
+        url = self.address.url
+        try:
+            return within(lambda: Client(url, timeout=f"{self.timeout_s}s", set_as_default=False), self.timeout_s,
+                          f"--scheduler {url}: no Dask handshake within {self.timeout_s:g} s (--connect-timeout)")
+        except (OSError, TimeoutError, ValueError) as exc:
+            reason = " ".join(str(exc).split()) or type(exc).__name__
+            raise SystemFailure(f"--scheduler {url}: Dask could not connect ({reason[:160]})") from None
+
     def close(self) -> None:
-        for part in (self.client, self.cluster):
-            if part is not None:
-                with contextlib.suppress(Exception):
-                    part.close()
+        """Close what :meth:`start` made, within :data:`CLOSE_TIMEOUT_S` each, Dask's teardown noise kept quiet."""
+        parts = [part for part in (self.client, self.cluster) if part is not None]
         self.client = self.cluster = None
+        # A closing cluster logs every worker it loses; the command has its
+        # own line for why it stops.
+        previous = logging.root.manager.disable
+        logging.disable(logging.CRITICAL)
+        try:
+            for part in parts:
+                with contextlib.suppress(Exception):
+                    within(lambda part=part: part.close(timeout=CLOSE_TIMEOUT_S), CLOSE_TIMEOUT_S + 1, "")
+        finally:
+            logging.disable(previous)
+
+
+class BackgroundStart:
+    """:meth:`DaskEngine.start` on a daemon thread, waited for with signals working.
+
+    A daemon thread, not an executor's: Python joins an executor's threads
+    at exit, so a start that never returns would hold the process after the
+    command had finished.
+    """
+
+    def __init__(self, engine: DaskEngine):
+        self.engine = engine
+        self._outcome: dict = {}
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="rollsim-cluster-start", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            self._outcome["client"] = self.engine.start()
+        except BaseException as exc:  # handed to the waiting thread
+            self._outcome["error"] = exc
+        finally:
+            self._done.set()
+
+    def result(self):
+        """The client, once started (waits; a signal interrupts the wait)."""
+        self._done.wait()
+        if "error" in self._outcome:
+            raise self._outcome["error"]
+        return self._outcome["client"]
+
+    def abandon(self) -> None:
+        """Stop waiting: close what has started, giving a local cluster under way a moment to finish starting.
+
+        A connection to a user's scheduler is not waited for: until it
+        is made there is nothing to close, and the thread dies with the
+        process.
+        """
+        if self._done.wait(CLOSE_TIMEOUT_S if self.engine.address is None else 0.0):
+            self.engine.close()
+
+
+def within(function: Callable, timeout_s: float, message: str):
+    """``function()`` on a daemon thread, given ``timeout_s`` seconds; its result or its exception.
+
+    Raises
+    ------
+    SystemFailure
+        ``message`` when the time is up (the thread is left to finish or not).
+    """
+    outcome: dict = {}
+    done = threading.Event()
+
+    def run() -> None:
+        try:
+            outcome["value"] = function()
+        except BaseException as exc:  # handed to the waiting thread
+            outcome["error"] = exc
+        finally:
+            done.set()
+
+    threading.Thread(target=run, name="rollsim-deadline", daemon=True).start()
+    if not done.wait(timeout_s):
+        raise SystemFailure(message)
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome.get("value")
+
+
+def dashboard_link(client, timeout_s: float = 2.0) -> Optional[str]:
+    """The address of the client's dashboard when it serves its status page, else None.
+
+    Dask gives a link whether or not a dashboard runs (without bokeh on the
+    scheduler the address answers 404), so the page is asked for, within
+    ``timeout_s`` seconds.
+    """
+    import urllib.request
+
+    link = getattr(client, "dashboard_link", None)
+    if not link or not str(link).startswith(("http://", "https://")):
+        return None
+    try:
+        with urllib.request.urlopen(link, timeout=timeout_s) as response:  # noqa: S310 - the scheduler's own page
+            return link if response.status == 200 else None
+    except (OSError, ValueError):  # 404 (HTTPError is an OSError), refused, timed out
+        return None
+
+
+def dashboard_available() -> bool:
+    """True when Dask's dashboard can serve pages here (it needs bokeh)."""
+    return importlib.util.find_spec("bokeh") is not None
 
 
 def batch_size(stage: str, cells: int, workers: int) -> int:

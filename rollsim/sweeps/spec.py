@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any, Mapping, Optional
 
 from rollsim.version import __version__
 from rollsim.errors import RollsimError, SceneError, clip
@@ -44,7 +44,11 @@ class SweepSpec:
     Attributes
     ----------
     scene : str
-        Bundled scene name or scene file path.
+        Bundled scene name or scene file path (or, with ``base``, how lines
+        name the scene).
+    base : mapping, optional
+        The base scene's data, for a sweep of a scene held in memory (the
+        Python API's :class:`rollsim.scene.model.Scene`); None reads ``scene``.
     overrides : tuple of str
         ``KEY=VALUE`` overrides of the base scene (``--set``).
     grid : tuple of (str, VALUES)
@@ -70,6 +74,7 @@ class SweepSpec:
     max_emissions: int = DEFAULTS["max_emissions"]
     keep_frames: bool = DEFAULTS["keep_frames"]
     options_given: frozenset = field(default=frozenset(), compare=False)
+    base: Optional[Mapping] = field(default=None, compare=False)
 
     def axes(self) -> list[Axis]:
         """The grid axes, then the zip axis."""
@@ -124,7 +129,19 @@ def _key_values(items, option: str) -> tuple:
         return tuple((str(key), values) for key, values in items.items())
     from rollsim.scene.loader import split_key_value
 
-    return tuple(split_key_value(item, option, "KEY=VALUES, e.g. link.distance_cm=5:40:5") for item in items)
+    pairs = tuple(split_key_value(item, option, "KEY=VALUES, e.g. link.distance_cm=5:40:5") for item in items)
+    _refuse_repeated_keys([key for key, _ in pairs], option)
+    return pairs
+
+
+def _refuse_repeated_keys(keys: list, option: str) -> None:
+    """A key given twice would be half dropped: refuse it, naming the key."""
+    seen: set = set()
+    for key in keys:
+        if key in seen:
+            raise RollsimError(f"{option} {clip(key, 60)}: given twice; give all its values in one {option} "
+                               f"(e.g. {option} {clip(key, 60)}=5,10,20)")
+        seen.add(key)
 
 
 def read_sweep_file(path: Path) -> dict:
@@ -170,7 +187,8 @@ def is_sweep_file(path: str) -> bool:
     return "scene" in data and ("grid" in data or "zip" in data)
 
 
-def spec_from_arguments(source: str, *, grid=(), zipped=(), overrides=(), stage=None, options: Optional[dict] = None) -> SweepSpec:
+def spec_from_arguments(source: str, *, grid=(), zipped=(), overrides=(), stage=None, options: Optional[dict] = None,
+                        base: Optional[Mapping] = None) -> SweepSpec:
     """A sweep from ``SCENE`` or a sweep file, with flags over the file.
 
     Parameters
@@ -187,11 +205,14 @@ def spec_from_arguments(source: str, *, grid=(), zipped=(), overrides=(), stage=
     options : dict, optional
         ``runs``, ``frames``, ``channel``, ``seed``, ``max_emissions``,
         ``keep_frames`` given on the command line (None values ignored).
+    base : mapping, optional
+        The base scene's data when the scene is held in memory; ``source``
+        then only names it.
     """
     options = {k: v for k, v in (options or {}).items() if v is not None}
     file_data: dict = {}
     scene = source
-    if is_sweep_file(source):
+    if base is None and is_sweep_file(source):
         file_data = read_sweep_file(Path(source))
         scene = file_data["scene"]
     grid_items = dict((k, v) for k, v in (file_data.get("grid") or {}).items())
@@ -213,7 +234,7 @@ def spec_from_arguments(source: str, *, grid=(), zipped=(), overrides=(), stage=
         overrides=tuple(file_data.get("set", [])) + tuple(overrides), seed=seed,
         runs=values["runs"], frames=values["frames"], channel=values["channel"],
         max_emissions=values["max_emissions"], keep_frames=bool(values["keep_frames"]),
-        options_given=frozenset(options),
+        options_given=frozenset(options), base=base,
     )
 
 
@@ -264,7 +285,7 @@ def validate_cells(spec: SweepSpec, quick: bool = False) -> ResolvedSweep:
     from rollsim.scene import read_yaml, scene_from_dict
     from rollsim.scene.bundled import resolve_scene_path
 
-    base = read_yaml(resolve_scene_path(spec.scene))
+    base = dict(spec.base) if spec.base is not None else read_yaml(resolve_scene_path(spec.scene))
     base_scene = scene_from_dict(base, spec.scene, spec.overrides)  # the base alone first: a clearer error
     seed = base_scene.seed if spec.seed is None else spec.seed
     resolved = ResolvedSweep(spec, base, spec.scene, seed, spec.cells())
