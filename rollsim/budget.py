@@ -1,4 +1,4 @@
-"""The memory budget: refuse an input before it allocates more than the machine has.
+"""The memory and disk budgets: refuse an input before it allocates or writes more than the machine has.
 
 Every input that sets a size (message bytes, emission counts, M and N, the
 frame size, a PNG's declared dimensions, a file read whole) is turned into an
@@ -16,6 +16,13 @@ The budget is, in order of precedence:
 3. half of the memory available to this process: the least of the free
    memory (``MemAvailable``), the cgroup's remaining limit and the room left
    under the address-space limit (``ulimit -v``).
+
+The disk budget works the same way for what a command writes (frames, truth,
+a sweep's kept frames): :func:`check_disk` compares an estimate with
+``rollsim --disk-limit SIZE``, else ``ROLLSIM_DISK_LIMIT``, else the free
+space of the target's file system less a margin (:func:`disk_margin_bytes`),
+before the first byte is written. A disk that fills anyway (another program
+writing meanwhile) still stops the command cleanly (:mod:`rollsim.outputs`).
 """
 
 from __future__ import annotations
@@ -30,6 +37,12 @@ from typing import Optional
 from rollsim.errors import BudgetError, RollsimError
 
 ENV_VAR = "ROLLSIM_MEMORY_LIMIT"
+DISK_ENV_VAR = "ROLLSIM_DISK_LIMIT"
+# Left free on the target's file system: a disk filled to the last byte
+# stops every other program on the machine too. 5 % of the file system,
+# at most 1 GiB.
+DISK_MARGIN_FRACTION = 0.05
+DISK_MARGIN_MAX_BYTES = 2**30
 _UNITS = {"": 1, "B": 1, "K": 10**3, "M": 10**6, "G": 10**9, "T": 10**12,
           "KI": 2**10, "MI": 2**20, "GI": 2**30, "TI": 2**40}
 _SIZE = re.compile(r"^\s*([0-9]+(?:\.[0-9]*)?|\.[0-9]+)\s*([KMGT]I?)?B?\s*$", re.IGNORECASE)
@@ -165,3 +178,62 @@ def check_file_size(path: Path, bytes_per_file_byte: float, what: str = "") -> N
     if not stat.S_ISREG(info.st_mode) and not stat.S_ISDIR(info.st_mode):
         raise RollsimError(f"{what or path}: not a regular file (a device, pipe or socket cannot be read whole)")
     check_memory(f"{what or path} ({format_bytes(info.st_size)})", info.st_size * bytes_per_file_byte)
+
+
+def existing_ancestor(path: Path) -> Path:
+    """``path`` or the nearest directory above it that exists (where its bytes will land)."""
+    path = Path(os.path.abspath(path))
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def disk_margin_bytes(total_bytes: int) -> int:
+    """Bytes left free on a file system of ``total_bytes``: 5 %, at most 1 GiB."""
+    return int(min(DISK_MARGIN_MAX_BYTES, DISK_MARGIN_FRACTION * total_bytes))
+
+
+def disk_budget_bytes(target: Path) -> tuple[int, str]:
+    """The bytes a command may write under ``target``, and where that figure comes from.
+
+    ``ROLLSIM_DISK_LIMIT`` if set, else the free space of ``target``'s file
+    system (the nearest existing directory's) less :func:`disk_margin_bytes`.
+    """
+    text = os.environ.get(DISK_ENV_VAR, "").strip()
+    if text:
+        return parse_size(text, DISK_ENV_VAR), f"set by --disk-limit or {DISK_ENV_VAR}"
+    where = existing_ancestor(target)
+    try:
+        info = os.statvfs(where)
+    except OSError:  # nothing to measure: the write itself will say what is wrong
+        return 2**63, "free space unknown"
+    free = info.f_bavail * info.f_frsize
+    margin = disk_margin_bytes(info.f_blocks * info.f_frsize)
+    return max(0, free - margin), (f"the free space on {where} less {format_bytes(margin)}; "
+                                   f"set a budget with --disk-limit or {DISK_ENV_VAR}")
+
+
+def check_disk(what: str, estimate_bytes: float, target: Path) -> None:
+    """Refuse to write ``estimate_bytes`` under ``target`` if they exceed the disk budget.
+
+    Parameters
+    ----------
+    what : str
+        The inputs that set the size, as the user wrote them, e.g.
+        ``"--frames 1000000000 of 1920 x 1080 gray8"``.
+    estimate_bytes : float
+        Bytes the command will write (an upper bound).
+    target : Path
+        Where they go (it need not exist yet).
+
+    Raises
+    ------
+    BudgetError
+        One line naming ``what``, the estimate and the budget.
+    """
+    budget, source = disk_budget_bytes(Path(target))
+    if estimate_bytes > budget:
+        raise BudgetError(
+            f"{what}: would write about {format_bytes(estimate_bytes)}, more than the disk budget of "
+            f"{format_bytes(budget)} ({source})"
+        )

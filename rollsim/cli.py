@@ -931,6 +931,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--memory-limit", metavar="SIZE", default=None,
                         help="memory budget (e.g. 4G, 500M); inputs that need more are refused before any work "
                         "(default: $ROLLSIM_MEMORY_LIMIT, else half the available memory)")
+    parser.add_argument("--disk-limit", metavar="SIZE", default=None,
+                        help="disk budget (e.g. 20G); outputs estimated to need more are refused before any work "
+                        "(default: $ROLLSIM_DISK_LIMIT, else the free space less 5 %% of the disk, at most 1 GiB)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     _add_scene_commands(sub)
@@ -951,11 +954,13 @@ def _report(lines: Sequence[str]) -> None:
 
 
 def _run(args) -> int:
-    from rollsim.budget import ENV_VAR, parse_size
+    from rollsim.budget import DISK_ENV_VAR, ENV_VAR, parse_size
 
     if args.memory_limit is not None:
         # In the environment, so that worker processes keep to it too.
         os.environ[ENV_VAR] = str(parse_size(args.memory_limit, "--memory-limit"))
+    if args.disk_limit is not None:
+        os.environ[DISK_ENV_VAR] = str(parse_size(args.disk_limit, "--disk-limit"))
     if getattr(args, "connect_timeout", None) is not None:
         from rollsim.sweeps.scheduler import ENV_VAR as TIMEOUT_VAR, connect_timeout_s
 
@@ -968,11 +973,11 @@ def _run(args) -> int:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``rollsim`` console script."""
     from rollsim import signals
-    from rollsim.budget import ENV_VAR
+    from rollsim.budget import DISK_ENV_VAR, ENV_VAR
     from rollsim.outputs import describe_os_error
 
     args = build_parser().parse_args(argv)
-    saved_environ = {name: os.environ.get(name) for name in (ENV_VAR, "ROLLSIM_CONNECT_TIMEOUT")}
+    saved_environ = {name: os.environ.get(name) for name in (ENV_VAR, DISK_ENV_VAR, "ROLLSIM_CONNECT_TIMEOUT")}
     saved_handlers = signals.install_handlers()
     try:
         return _run(args)

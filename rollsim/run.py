@@ -121,12 +121,13 @@ def run_scene(
     from rollsim.evaluate import evaluate_directory
     from rollsim.render import RenderPipeline
     from rollsim.render.pipeline import check_render_memory
-    from rollsim.render.writer import render_into
+    from rollsim.render.writer import check_render_disk, render_into
     from rollsim.report import write_report
 
     if n_frames < 1:
         raise ValueError(f"n_frames must be >= 1, got {n_frames}")
     check_render_memory(scene, workers)
+    check_render_disk(scene, n_frames, Path(out_dir))
     RenderPipeline(scene)  # fail on an impossible scene before touching disk
     clock = _StageClock(on_stage)
 

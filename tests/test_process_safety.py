@@ -122,8 +122,18 @@ def _remount(mount: Path, options: str) -> None:
     subprocess.run(["mount", "-o", f"remount,{options}", str(mount)], check=True, capture_output=True)
 
 
-def test_a_full_disk_is_one_line_leaves_the_target_as_it_was_and_a_rerun_succeeds(tmpfs):
+def test_frames_over_the_disk_budget_are_refused_before_any_work(tmpfs):
     result = run_rollsim("render", "paper-default", "--out", "out", "--frames", "300", *SMALL, cwd=tmpfs)
+    assert_one_error(result, 2, "300 frames of 160 x 120 gray8: would write about", "MB, more than the disk budget of",
+                     f"the free space on {tmpfs} less")
+    assert result.seconds < 5
+    assert list(tmpfs.iterdir()) == []
+
+
+def test_a_full_disk_is_one_line_leaves_the_target_as_it_was_and_a_rerun_succeeds(tmpfs):
+    # A budget larger than the disk: the disk fills as if another program had filled it meanwhile.
+    result = run_rollsim("--disk-limit", "1G", "render", "paper-default", "--out", "out", "--frames", "300", *SMALL,
+                         cwd=tmpfs)
     assert_one_error(result, 1, "No space left on device", "out was left as it was")
     assert list(tmpfs.iterdir()) == []
     result = run_rollsim("render", "paper-default", "--out", "out", "--frames", "3", *SMALL, cwd=tmpfs)

@@ -29,6 +29,15 @@ if TYPE_CHECKING:
     from rollsim.scene.model import Scene
 
 CHUNK_FRAMES = 4
+# Bytes of a frame's samples per pixel, by output format. The PNG of a noisy
+# frame holds 80-90 % of them (paper-default: 1.78 of 2.07 MB a frame), so
+# the samples' size is an upper bound of the file's.
+_SAMPLE_BYTES = {"gray8": 1, "raw16": 2, "rgb8": 3}
+# A PNG's chunks and text (its metadata) and a truth line's frame fields,
+# per frame; a truth line holds every PHY-SDU overlapping the frame, at
+# about 230 bytes each (paper-default: 1.4 kB a line): 400 is a bound.
+_FRAME_OVERHEAD_BYTES = 4096
+_TRUTH_BYTES_PER_SDU = 400
 
 
 @dataclass(frozen=True)
@@ -68,6 +77,28 @@ def frame_text(scene: Scene, truth: dict) -> dict[str, str]:
 
 
 _WORKER_PIPELINE: Optional[RenderPipeline] = None
+
+
+def frame_disk_bytes(scene: Scene) -> float:
+    """An upper bound of the bytes one rendered frame takes on disk: its PNG and its truth line."""
+    from rollsim.transmitter import phy_from_scene
+
+    cam = scene.camera
+    samples = cam.width_px * cam.height_px * _SAMPLE_BYTES.get(cam.output, 6)
+    sdus = cam.frame_period_s * scene.link.clock_hz / max(1, phy_from_scene(scene).sdu_chips) + 2
+    return samples + _FRAME_OVERHEAD_BYTES + _TRUTH_BYTES_PER_SDU * sdus
+
+
+def check_render_disk(scene: Scene, n_frames: int, target: Path, what: str = "") -> None:
+    """Refuse ``n_frames`` of ``scene`` whose files would not fit the disk budget under ``target``.
+
+    ``what`` names the option that asked for them, before the frame count.
+    """
+    from rollsim.budget import check_disk
+
+    cam = scene.camera
+    check_disk(f"{what}{n_frames} frames of {cam.width_px} x {cam.height_px} {cam.output}",
+               n_frames * frame_disk_bytes(scene), target)
 
 
 def _init_worker(scene: Scene) -> None:
@@ -128,7 +159,8 @@ def render_to_dir(
     Raises
     ------
     RollsimError
-        An unusable ``out_dir``, a frame too large for the memory budget, or
+        An unusable ``out_dir``, a frame too large for the memory budget,
+        frames too many for the disk budget (:func:`check_render_disk`), or
         (exit code 1) an OS failure while writing: ``out_dir`` is then as it
         was.
     """
@@ -136,6 +168,7 @@ def render_to_dir(
         raise ValueError(f"n_frames must be >= 1, got {n_frames}")
     workers = default_workers() if workers is None else max(1, int(workers))
     check_render_memory(scene, workers)
+    check_render_disk(scene, n_frames, Path(out_dir))
     _init_worker(scene)  # fails on an impossible scene before touching disk; kept for the render
     with staged_directory(Path(out_dir), force, inputs) as staging:
         render_into(scene, staging, n_frames, workers, progress)

@@ -119,6 +119,8 @@ def run_sweep(
     scene_path = resolve_scene_path(spec.scene) if spec.base is None else None
     inputs = [scene_path] if scene_path is not None and scene_path.exists() else []
     SweepDirectory.check(Path(out_dir), record, resume=resume, force=force, inputs=inputs)
+    if spec.stage == "run" and spec.keep_frames:
+        _check_kept_frames_disk(spec, quick, Path(out_dir))
     engine = DaskEngine(workers, scheduler, spec.stage, connect_timeout_s) if client is None else None
     starting = BackgroundStart(engine) if engine is not None else None
     try:
@@ -144,6 +146,16 @@ def run_sweep(
     finally:
         if engine is not None:
             engine.close()
+
+
+def _check_kept_frames_disk(spec: SweepSpec, resolved, out_dir: Path) -> None:
+    """Refuse ``--keep-frames`` whose frames would not fit the disk budget (each cell's as the base scene's)."""
+    from rollsim.render.writer import check_render_disk
+    from rollsim.scene import scene_from_dict
+
+    scene = scene_from_dict(resolved.base, spec.scene, spec.overrides)
+    cells = len(resolved.cells)
+    check_render_disk(scene, cells * spec.frames, out_dir, f"--keep-frames: {cells} cells x {spec.frames} frames = ")
 
 
 def _compute(client, spec: SweepSpec, resolved, todo: list, directory, progress, on_start) -> None:
