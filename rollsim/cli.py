@@ -363,7 +363,7 @@ def cmd_fit_camera(args) -> int:
     from rollsim.decode import frame_pixel_limit
     from rollsim.fit import compare, fit_camera
     from rollsim.fit.report import FILES, fit_outputs
-    from rollsim.outputs import check_file_targets
+    from rollsim.outputs import check_directory_files, write_files_into
     from rollsim.scene import load_scene
 
     if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
@@ -374,11 +374,7 @@ def cmd_fit_camera(args) -> int:
     if len(paths) < 2:
         raise RollsimError(f"fit-camera needs at least two frames, got {len(paths)}")
     out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise RollsimError(f"--out {out}: cannot create the directory: {exc.strerror}") from None
-    check_file_targets([out / name for name in FILES], args.force)  # before the work, not after
+    check_directory_files(out, FILES, args.force)  # before the work, not after; made when written
     frames = []
     for path in paths:
         try:
@@ -394,8 +390,8 @@ def cmd_fit_camera(args) -> int:
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
     comparison = compare(frames, fit)
-    _write_outputs(args, {str(k): v for k, v in fit_outputs(out, fit, comparison, args.clock_hz,
-                                                            [str(p) for p in paths]).items()})
+    write_files_into(out, {str(k): v for k, v in fit_outputs(out, fit, comparison, args.clock_hz,
+                                                             [str(p) for p in paths]).items()}, force=args.force)
     est = fit.estimates
     print(f"row time {est['row_time_us'].value:.4f} us, exposure {est['exposure_us'].value:.1f} us, "
           f"ISO {est['iso'].value:.0f}, read noise {est['read_noise_e'].value:.2f} e-, "

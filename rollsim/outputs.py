@@ -780,6 +780,56 @@ def write_files(contents: dict, force: bool = False) -> None:
             files.write(path, data)
 
 
+def check_directory_files(directory: PathLike, names: Iterable[str], force: bool = False) -> list[Path]:
+    """Check, before any work, the files a command will write into ``directory``, which may not exist yet.
+
+    A missing ``directory`` (and its missing parents) is made only when the
+    files are written (:func:`write_files_into`), so a command refused or
+    failed on the way leaves no empty folder behind.
+
+    Raises
+    ------
+    OutputError, SystemFailure
+        As :func:`check_file_targets`; ``directory`` a file.
+    """
+    directory = Path(directory)
+    paths = [directory / name for name in names]
+    if os.path.lexists(directory) and not directory.is_dir():
+        raise OutputError(f"{directory}: exists and is not a directory")
+    if directory.is_dir():
+        return check_file_targets(paths, force)
+    from rollsim.budget import existing_ancestor
+
+    ancestor = existing_ancestor(directory)
+    if not ancestor.is_dir():
+        raise OutputError(f"{directory}: {ancestor} is not a directory")
+    _check_writable_dir(ancestor, directory)
+    return paths
+
+
+def write_files_into(directory: PathLike, contents: dict, force: bool = False) -> None:
+    """:func:`write_files` into ``directory``, made first with its missing parents.
+
+    The directories made here are removed again when the files cannot be
+    written: a failed command leaves nothing behind.
+    """
+    made: list[Path] = []
+    missing = Path(directory)
+    while not os.path.lexists(missing) and missing != missing.parent:
+        made.insert(0, missing)
+        missing = missing.parent
+    try:
+        with os_failures():
+            for folder in made:
+                folder.mkdir()
+        write_files(contents, force)
+    except BaseException:
+        for folder in reversed(made):
+            with contextlib.suppress(OSError):
+                folder.rmdir()  # only if still empty: nothing of anyone's is removed
+        raise
+
+
 def figure_png(draw: Callable[[object], None]) -> bytes:
     """PNG bytes of a plot that ``draw(file)`` saves to a file object."""
     import io

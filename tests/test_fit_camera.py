@@ -171,3 +171,27 @@ def test_fit_camera_refuses_bad_input_in_one_line(tmp_path, capsys):
     assert "square" in err and "\n" not in err
     assert main(["fit-camera", str(frames), "--clock-hz", "-1", "--out", str(tmp_path / "c")]) != 0
     assert "--clock-hz" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("kind", ["mixed sizes", "all black", "1x1", "a JPEG named .png", "a text file"])
+def test_bad_frames_leave_no_output_folder(tmp_path, capsys, kind):
+    import cv2
+
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for k in range(3):
+        name = frames / f"frame_{k:06d}.png"
+        if kind == "mixed sizes":
+            cv2.imwrite(str(name), np.full((60 + 10 * k, 80), 40, np.uint8))
+        elif kind == "all black":
+            cv2.imwrite(str(name), np.zeros((60, 80), np.uint8))
+        elif kind == "1x1":
+            cv2.imwrite(str(name), np.full((1, 1), 40, np.uint8))
+        elif kind == "a JPEG named .png":
+            name.write_bytes(cv2.imencode(".jpg", np.full((60, 80), 40, np.uint8))[1].tobytes())
+        else:
+            name.write_text("not a frame\n")
+    code = main(["fit-camera", str(frames), "--clock-hz", "4000", "--out", str(tmp_path / "out" / "cam")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frames"]

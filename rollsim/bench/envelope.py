@@ -443,10 +443,9 @@ def format_markdown(result: dict) -> str:
 
 def write_outputs(result: dict, maps: list[EnvelopeMap], paths: dict[str, Path], force: bool = False) -> None:
     """Each map's CSV and PNG, and the boundary table, committed together."""
-    from rollsim.outputs import figure_png, write_files
+    from rollsim.outputs import figure_png, write_files_into
     from rollsim.sweeps.table import csv_text
 
-    next(iter(paths.values())).parent.mkdir(exist_ok=True)
     contents: dict = {paths["envelope.md"]: format_markdown(result) + "\n",
                       paths["envelope.json"]: json.dumps(result, indent=2, allow_nan=False) + "\n"}
     bounds = {b["map"]: b for b in result["boundaries"]}
@@ -454,7 +453,7 @@ def write_outputs(result: dict, maps: list[EnvelopeMap], paths: dict[str, Path],
         rows = result["maps"][m.name]
         contents[paths[f"{m.name}.csv"]] = csv_text(rows, map_columns(m, rows))
         contents[paths[f"{m.name}.png"]] = figure_png(functools.partial(plot_map, m, rows, bounds[m.name]))
-    write_files(contents, force=force)
+    write_files_into(next(iter(paths.values())).parent, contents, force=force)
 
 
 def command_line(args) -> str:
