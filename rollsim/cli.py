@@ -51,8 +51,11 @@ def _int_at_least(minimum: int, words: str, maximum: Optional[int] = None):
     return parse
 
 
-_positive_int = _int_at_least(1, "positive")
-_non_negative_int = _int_at_least(0, "non-negative")
+# Counts past 2**53 are not exact as the floats that sizes and times become;
+# seeds are 63-bit; no machine runs more than 1024 worker processes.
+_positive_int = _int_at_least(1, "positive", 2**53)
+_non_negative_int = _int_at_least(0, "non-negative", 2**63 - 1)
+_workers = _int_at_least(1, "positive", 1024)
 
 
 def _check_probability(name: str, value: Optional[float]) -> None:
@@ -96,7 +99,7 @@ def _add_scene_output_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=_positive_int, default=None, help="frame count (default: the scene's frames)")
     parser.add_argument("--seed", type=_non_negative_int, default=None, help="override the scene seed")
     _add_force(parser, "a previous rollsim result in the output directory (never anything else)")
-    parser.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
+    parser.add_argument("--workers", type=_workers, default=None, help="worker processes (default: one per core)")
     parser.add_argument("--quiet", action="store_true", help="no progress")
     _add_set_option(parser)
 
@@ -700,7 +703,7 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--exposure-us", type=float, default=None,
                    help="exposure in us (overrides the scene); exposures longer than a chip are read by sequence "
                         "detection")
-    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: one per core)")
+    p.add_argument("--workers", type=_workers, default=None, help="worker processes (default: one per core)")
     p.add_argument("--decoder", metavar="MODULE:FUNCTION", default=None,
                    help="a decoder of your own: FUNCTION(image, settings) returning records of decoded.jsonl's "
                         "schema (default: rollsim's decoder)")
@@ -769,7 +772,7 @@ def _add_channel_commands(sub) -> None:
     p.add_argument("--runs", type=_positive_int, default=1000, help="independent runs (default 1000)")
     p.add_argument("--seed", type=_non_negative_int, default=None, help="seed (default: the scene's)")
     p.add_argument("--max-emissions", type=_positive_int, default=50_000, help="cap per run (default 50000, as in the paper)")
-    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
+    p.add_argument("--workers", type=_workers, default=None, help="worker processes (default: both cores)")
     _add_json_file(p, "write the summary and parameters as JSON")
     _add_force(p)
     p.add_argument("--format", choices=("rollsim", "camcomsim"), default="rollsim",
@@ -797,7 +800,7 @@ def _add_sweep_command(sub) -> None:
     p.add_argument("--frames", type=_positive_int, default=None, help="run: frames per cell (default 100)")
     p.add_argument("--keep-frames", action="store_true", help="run: also write each cell's PNG frames")
     p.add_argument("--seed", type=_non_negative_int, default=None, help="sweep seed (default: the scene's)")
-    p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
+    p.add_argument("--workers", type=_workers, default=None, help="local Dask workers (default: one per core)")
     _add_scheduler_options(p)
     p.add_argument("--resume", action="store_true", help="continue the sweep in DIR: only missing or failed cells run")
     _add_force(p, "a previous rollsim result in DIR")
@@ -813,7 +816,7 @@ def _add_paper_command(sub) -> None:
                    help="a reduced run (60 frames, 200 runs, the pixel pipeline on distances only): a few minutes")
     p.add_argument("--frames", type=_positive_int, default=None, help="frames per pixel setting (default 300; quick 60)")
     p.add_argument("--runs", type=_positive_int, default=None, help="runs per event setting (default 1000; quick 200)")
-    p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
+    p.add_argument("--workers", type=_workers, default=None, help="local Dask workers (default: one per core)")
     _add_scheduler_options(p)
     _add_force(p, "a previous rollsim result in DIR")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
@@ -853,7 +856,7 @@ def _add_bench_commands(sub) -> None:
     p.add_argument("--rss-frames", type=_positive_int, nargs=2, default=None, metavar=("FEW", "MANY"),
                    help="frame counts of the two peak-memory runs (default 200 2000)")
     p.add_argument("--startup-runs", type=_positive_int, default=None, help="runs of each start-up command (default 3)")
-    p.add_argument("--workers", type=_positive_int, default=2,
+    p.add_argument("--workers", type=_workers, default=2,
                    help="workers of the end-to-end, in-memory and memory runs (default 2)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     _add_json_file(p)
@@ -861,7 +864,7 @@ def _add_bench_commands(sub) -> None:
 
     p = add("eventsim", "event simulator: emissions/s, wall time and memory of the CamComSim workload")
     p.add_argument("--runs", type=_positive_int, default=1000, help="runs (default 1000)")
-    p.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: both cores)")
+    p.add_argument("--workers", type=_workers, default=None, help="worker processes (default: both cores)")
     _add_json_file(p)
     _add_force(p)
 
@@ -873,7 +876,7 @@ def _add_bench_commands(sub) -> None:
     p = add("stress", "decoder outcome rates on the paper, stress and effect scenes (the table in docs/evaluation.md)")
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: every bundled paper-, stress- and effect- scene)")
     p.add_argument("--frames", type=_positive_int, default=100, help="frames per scene (default 100)")
-    p.add_argument("--workers", type=_positive_int, default=2, help="scenes in parallel (default 2)")
+    p.add_argument("--workers", type=_workers, default=2, help="scenes in parallel (default 2)")
     p.add_argument("--decoder", metavar="MODULE:FUNCTION", default=None,
                    help="also decode the same frames with this decoder and compare it with rollsim's")
     p.add_argument("--markdown", metavar="FILE", help="also write the table as Markdown")
@@ -893,7 +896,7 @@ def _add_bench_commands(sub) -> None:
                    help="maps to run (default all: exposure,snr,blur,defocus,rows_per_chip,contrast,saturation)")
     p.add_argument("--quick", action="store_true", help="two points per map, two frames per cell (a check, not results)")
     p.add_argument("--seed", type=int, default=None, help="sweep seed of every map (default: each scene's)")
-    p.add_argument("--workers", type=_positive_int, default=None, help="local Dask workers (default: one per core)")
+    p.add_argument("--workers", type=_workers, default=None, help="local Dask workers (default: one per core)")
     _add_scheduler_options(p)
     p.add_argument("--out", metavar="DIR", default=None,
                    help="write MAP.csv and MAP.png per map, envelope.md (the boundaries) and envelope.json (all) here")

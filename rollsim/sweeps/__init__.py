@@ -143,9 +143,13 @@ def run_sweep(
             return _finish(directory, resolved, spec, computed=len(todo), submit=active.submit)
         finally:
             directory.close()
+    except BaseException:
+        if engine is not None:
+            engine.close(stopping=True)
+        raise
     finally:
         if engine is not None:
-            engine.close()
+            engine.close()  # after the above, nothing is left to close
 
 
 def _check_kept_frames_disk(spec: SweepSpec, resolved, out_dir: Path) -> None:

@@ -162,9 +162,16 @@ class DaskEngine:
             reason = " ".join(str(exc).split()) or type(exc).__name__
             raise SystemFailure(f"--scheduler {url}: Dask could not connect ({reason[:160]})") from None
 
-    def close(self) -> None:
-        """Close what :meth:`start` made, within :data:`CLOSE_TIMEOUT_S` each, Dask's teardown noise kept quiet."""
+    def close(self, stopping: bool = False) -> None:
+        """Close what :meth:`start` made, within :data:`CLOSE_TIMEOUT_S` each, Dask's teardown noise kept quiet.
+
+        ``stopping`` (a signal or an error stops the command): the local
+        workers are killed first, since a worker busy with a cell answers
+        a polite close only when the cell ends.
+        """
         parts = [part for part in (self.client, self.cluster) if part is not None]
+        if stopping and self.cluster is not None:
+            _kill_workers(self.cluster)
         self.client = self.cluster = None
         # A closing cluster logs every worker it loses; the command has its
         # own line for why it stops.
@@ -176,6 +183,18 @@ class DaskEngine:
                     within(lambda part=part: part.close(timeout=CLOSE_TIMEOUT_S), CLOSE_TIMEOUT_S + 1, "")
         finally:
             logging.disable(previous)
+
+
+def _kill_workers(cluster) -> None:
+    """SIGKILL the worker processes of a local cluster (its nannies name them)."""
+    import os
+    import signal
+
+    for nanny in list(getattr(cluster, "workers", {}).values()):
+        with contextlib.suppress(Exception):
+            pid = nanny.pid
+            if pid:
+                os.kill(pid, signal.SIGKILL)
 
 
 class BackgroundStart:
@@ -216,7 +235,7 @@ class BackgroundStart:
         process.
         """
         if self._done.wait(CLOSE_TIMEOUT_S if self.engine.address is None else 0.0):
-            self.engine.close()
+            self.engine.close(stopping=True)
 
 
 def within(function: Callable, timeout_s: float, message: str):
