@@ -24,11 +24,16 @@ Frames are rendered one at a time as they are iterated (constant memory);
 from __future__ import annotations
 
 import json
+import math
+import os
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping, Optional, Sequence, Union
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping, Optional, Sequence, Union, cast
 
 import numpy as np
+
+from rollsim.errors import ApiArgumentError, ApiTypeError, ApiValueError, RollsimError, clip, short_repr
+from rollsim.validation import MAX_COUNT
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -48,14 +53,180 @@ __all__ = [
     "load_scene",
     "render",
     "simulate",
+    "sweep",
 ]
+
+# ---------------------------------------------------------- argument checks
+
+# The most frames one call renders: the bound of the scene's ``frames`` key.
+MAX_FRAMES = 10**9
+# Seeds are 63-bit, as the scene's ``seed`` key.
+SEED_LIMIT = 2**63
+SCENE_EXPECTED = "a bundled scene name (rollsim scenes lists them), a YAML file or a Scene (from rollsim.load_scene)"
+
+
+class _Arguments:
+    """The argument checks of one API function or method.
+
+    Each check returns the value (as the function uses it) or raises an
+    :class:`~rollsim.errors.ApiTypeError` (wrong type) or
+    :class:`~rollsim.errors.ApiValueError` (wrong value) whose one line names
+    the function and the argument, what was expected and what was given
+    (quoted short, so that a huge value costs nothing to report).
+
+    Parameters
+    ----------
+    where : str
+        The function as the user calls it: ``"render"``, ``"MmbpModel.p_message"``.
+    """
+
+    def __init__(self, where: str):
+        self.where = where
+
+    def error(self, name: str, text: str, kind: type = ApiValueError) -> ApiArgumentError:
+        """``rollsim.WHERE: NAME: TEXT`` as an error of ``kind``."""
+        return kind(f"rollsim.{self.where}: {name}: {text}")
+
+    def refuse(self, name: str, expected: str, value, kind: type = ApiTypeError) -> ApiArgumentError:
+        """``rollsim.WHERE: NAME: expected EXPECTED, got VALUE`` as an error of ``kind``."""
+        return self.error(name, f"expected {expected}, got {short_repr(value)}", kind)
+
+    def instance(self, name: str, value, types, expected: str):
+        """``value`` if it is one of ``types``."""
+        if not isinstance(value, types):
+            raise self.refuse(name, expected, value)
+        return value
+
+    def integer(self, name: str, value, minimum: int = 0, maximum: int = MAX_COUNT, optional: bool = False):
+        """``value`` as an int in [minimum, maximum]; numpy integers pass, bools and floats do not."""
+        if value is None and optional:
+            return None
+        expected = f"an integer from {minimum} to {_bound_text(maximum)}"
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise self.refuse(name, expected, value)
+        if not minimum <= value <= maximum:
+            raise self.refuse(name, expected, value, ApiValueError)
+        return int(value)
+
+    def seed(self, name: str, value, optional: bool = False):
+        """``value`` as a seed: an int in [0, 2**63)."""
+        return self.integer(name, value, 0, SEED_LIMIT - 1, optional)
+
+    def positive(self, name: str, value, optional: bool = False) -> Optional[float]:
+        """``value`` as a finite float > 0; NaN, inf and bools refused."""
+        if value is None and optional:
+            return None
+        expected = "a finite number > 0"
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise self.refuse(name, expected, value)
+        try:
+            number = float(value)
+        except OverflowError:  # an int beyond a float's range
+            number = math.inf
+        if not (math.isfinite(number) and number > 0):
+            raise self.refuse(name, expected, value, ApiValueError)
+        return number
+
+    def choice(self, name: str, value, choices: Sequence[str]) -> str:
+        """``value`` if it is one of the strings ``choices``."""
+        expected = f"one of {', '.join(repr(c) for c in choices)}"
+        if not isinstance(value, str):
+            raise self.refuse(name, expected, value)
+        if value not in choices:
+            raise self.refuse(name, expected, value, ApiValueError)
+        return value
+
+    def flag(self, name: str, value) -> bool:
+        """``value`` as a bool (True, False or a numpy bool)."""
+        return bool(self.instance(name, value, (bool, np.bool_), "True or False"))
+
+    def path(self, name: str, value, expected: str = "a path (str or Path)") -> Union[str, Path]:
+        """``value`` if it is a non-blank str or path without NUL characters."""
+        text = os.fspath(value) if isinstance(value, os.PathLike) else value
+        if not isinstance(text, str):
+            raise self.refuse(name, expected, value)
+        # The OS refuses a NUL in a name with a bare ValueError, and a blank
+        # name would read as the working directory.
+        if not text.strip() or "\0" in text:
+            raise self.refuse(name, expected, value, ApiValueError)
+        return value
+
+    def scene(self, name: str, value):
+        """``value`` if it is a Scene, a bundled scene's name or a scene file."""
+        from rollsim.scene.model import Scene
+
+        return value if isinstance(value, Scene) else self.path(name, value, SCENE_EXPECTED)
+
+    def iterable(self, name: str, value, expected: str):
+        """``value`` if it is iterable and not a string or mapping (whose items are not records)."""
+        if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
+            raise self.refuse(name, expected, value)
+        return value
+
+    def callable(self, name: str, value, expected: str):
+        """``value`` if it is callable or None."""
+        if value is not None and not callable(value):
+            raise self.refuse(name, expected, value)
+        return value
+
+    def texts(self, name: str, value) -> list[str]:
+        """Scene overrides as ``KEY=VALUE`` texts: from a mapping, or (sweep's) an iterable of such texts."""
+        if value is None:
+            return []
+        if isinstance(value, Mapping):
+            return [self.override_text(name, key, item) for key, item in value.items()]
+        expected = "a mapping of scene keys to values, e.g. {'link.distance_cm': 10}"
+        return [self.instance(f"{name}[{n}]", text, str, "a KEY=VALUE text")
+                for n, text in enumerate(self.iterable(name, value, expected))]
+
+    def override_text(self, name: str, key, value) -> str:
+        """``KEY=VALUE`` as ``--set`` takes it; values other than strings as JSON (which YAML reads)."""
+        key = self.instance(f"{name} key", key, str, "a scene key (str), e.g. 'link.distance_cm'")
+        if not key.strip() or "=" in key:
+            raise self.refuse(f"{name} key", "a scene key, e.g. 'link.distance_cm'", key, ApiValueError)
+        if isinstance(value, str):
+            return f"{key}={value}"
+        shown = f"{name}[{clip(repr(key), 40)}]"
+        try:
+            return f"{key}={json.dumps(value, allow_nan=False, default=_plain)}"
+        except ValueError:
+            raise self.refuse(shown, "finite numbers", value, ApiValueError) from None
+        except TypeError:
+            raise self.refuse(shown, "a number, str, bool, None, or a list or dict of them", value) from None
+
+
+# Bounds as an error line shows them: 2**53 reads better than its 16 digits.
+_BOUND_TEXT = {MAX_COUNT: "2**53", SEED_LIMIT - 1: "2**63 - 1"}
+
+
+def _bound_text(bound: int) -> str:
+    """A bound as an error line shows it."""
+    return _BOUND_TEXT.get(bound, str(bound))
+
+
+def _plain(value):
+    """A numpy scalar or array as the Python value JSON writes; anything else refused."""
+    if isinstance(value, (np.generic, np.ndarray)):
+        return value.tolist()
+    raise TypeError(type(value).__name__)
+
 
 # ------------------------------------------------------------------- scenes
 
 
-def _override_text(key: str, value: Any) -> str:
-    """``KEY=VALUE`` as ``--set`` takes it; values other than strings as JSON (which YAML reads)."""
-    return f"{key}={value if isinstance(value, str) else json.dumps(value)}"
+def _load(args: _Arguments, name: str, scene, texts: Sequence[str] = (), relax: Sequence[str] = ()) -> "Scene":
+    """The scene ``scene`` (checked as argument ``name``) with the overrides ``texts``."""
+    from rollsim.scene import load_scene as load
+    from rollsim.scene import scene_from_dict, scene_to_dict
+    from rollsim.scene.model import Scene
+
+    scene = args.scene(name, scene)
+    if isinstance(scene, Scene):
+        return scene_from_dict(scene_to_dict(scene), scene.name, texts, relax=relax) if texts else scene
+    try:
+        return load(scene if isinstance(scene, str) else Path(os.fspath(scene)), texts, relax=relax)
+    except OSError as exc:  # a name the OS will not look up (too long, ...): the user's value
+        raise args.error(name, f"cannot read {short_repr(scene)} ({exc.strerror or exc})") from None
 
 
 def load_scene(scene: Union[str, Path, "Scene"], overrides: Optional[Mapping[str, Any]] = None,
@@ -80,26 +251,28 @@ def load_scene(scene: Union[str, Path, "Scene"], overrides: Optional[Mapping[str
     ------
     SceneError
         One line per problem, naming the file and field.
+    ApiTypeError, ApiValueError
+        An argument of the wrong type or value (a ``TypeError`` and a
+        ``ValueError``), naming it.
 
     Examples
     --------
     >>> import rollsim as rs
     >>> rs.load_scene("paper-default", overrides={"camera.exposure_us": 50}).camera.exposure_us
     50.0
+    >>> rs.load_scene(None)
+    Traceback (most recent call last):
+    ...
+    rollsim.errors.ApiTypeError: rollsim.load_scene: scene: expected a bundled scene name (rollsim scenes lists them), a YAML file or a Scene (from rollsim.load_scene), got None
     """
-    from rollsim.scene import load_scene as load
-    from rollsim.scene.model import Scene
-
-    texts = [_override_text(k, v) for k, v in (overrides or {}).items()]
+    args = _Arguments("load_scene")
+    args.scene("scene", scene)
+    texts = args.texts("overrides", args.instance("overrides", overrides, (Mapping, type(None)),
+                                                  "a mapping of scene keys to values, e.g. {'link.distance_cm': 10}"))
+    seed = args.seed("seed", seed, optional=True)
     if seed is not None:
-        texts.append(_override_text("seed", seed))
-    if isinstance(scene, Scene):
-        if not texts:
-            return scene
-        from rollsim.scene import scene_from_dict, scene_to_dict
-
-        return scene_from_dict(scene_to_dict(scene), scene.name, texts)
-    return load(scene, texts)
+        texts.append(f"seed={seed}")
+    return _load(args, "scene", scene, texts)
 
 
 # -------------------------------------------------------------------- truth
@@ -139,6 +312,9 @@ class SduTruth:
     fully_visible: bool
 
 
+_TRUTH_KEYS = ("frame", "start_s", "row_time_s", "exposure_s", "sdus")
+
+
 @dataclass(frozen=True)
 class FrameTruth:
     """The ground truth of one frame (a ``truth.jsonl`` line).
@@ -162,11 +338,25 @@ class FrameTruth:
 
     @classmethod
     def from_record(cls, record: Mapping) -> "FrameTruth":
-        """From a ``truth.jsonl`` record."""
-        rows = record.get("led_rows")
-        return cls(int(record["frame"]), float(record["start_s"]), float(record["row_time_s"]),
-                   float(record["exposure_s"]), tuple(rows) if rows else None,
-                   tuple(SduTruth(**sdu) for sdu in record["sdus"]))
+        """From a ``truth.jsonl`` record.
+
+        Raises
+        ------
+        ApiTypeError, ApiValueError
+            ``record`` is not a mapping, or not a ``truth.jsonl`` record.
+        """
+        args = _Arguments("FrameTruth.from_record")
+        args.instance("record", record, Mapping, "a truth.jsonl record (a dict)")
+        missing = [key for key in _TRUTH_KEYS if key not in record]
+        if missing:
+            raise args.error("record", f"{missing[0]}: missing (a truth.jsonl record has {', '.join(_TRUTH_KEYS)})")
+        try:
+            rows = record.get("led_rows")
+            return cls(int(record["frame"]), float(record["start_s"]), float(record["row_time_s"]),
+                       float(record["exposure_s"]), tuple(rows) if rows else None,
+                       tuple(SduTruth(**sdu) for sdu in record["sdus"]))
+        except (TypeError, ValueError, OverflowError) as exc:  # a field of the wrong type or shape
+            raise args.error("record", f"not a truth.jsonl record ({clip(str(exc))})") from None
 
     def to_record(self) -> dict:
         """The ``truth.jsonl`` record."""
@@ -185,8 +375,11 @@ class Truth(Sequence):
     """
 
     def __init__(self, frames: Sequence[FrameTruth], scene: "Scene"):
-        self._frames = tuple(frames)
-        self.scene = scene
+        args = _Arguments("Truth")
+        self._frames = tuple(args.iterable("frames", frames, "a sequence of FrameTruth"))
+        for number, frame in enumerate(self._frames):
+            args.instance(f"frames[{number}]", frame, FrameTruth, "a FrameTruth")
+        self.scene = _scene_object(args, scene)
 
     def __getitem__(self, index):
         return self._frames[index]
@@ -236,11 +429,9 @@ class Frames:
     """
 
     def __init__(self, scene: "Scene", n_frames: int, start: int = 0):
-        if n_frames < 0 or start < 0:
-            raise ValueError(f"n_frames and start must be >= 0, got {n_frames} and {start}")
-        self.scene = scene
-        self.n_frames = int(n_frames)
-        self.start = int(start)
+        args = _Arguments("Frames")
+        self.scene = _scene_object(args, scene)
+        self.n_frames, self.start = _frame_span(args, n_frames, start)
         self._truth: dict[int, FrameTruth] = {}
         self._pipeline: Any = None
 
@@ -277,6 +468,19 @@ class Frames:
         return list(self)
 
 
+def _scene_object(args: _Arguments, scene) -> "Scene":
+    """``scene`` if it is a loaded Scene (a class's argument, which loads nothing)."""
+    from rollsim.scene.model import Scene
+
+    return args.instance("scene", scene, Scene, "a Scene (from rollsim.load_scene)")
+
+
+def _frame_span(args: _Arguments, n_frames, start) -> tuple[int, int]:
+    """``n_frames`` and ``start`` checked: counts whose frame indices stay exact as floats (frame times)."""
+    n_frames = args.integer("n_frames", n_frames, 0, MAX_FRAMES)
+    return n_frames, args.integer("start", start, 0, MAX_COUNT - n_frames)
+
+
 def render(scene: Union[str, Path, "Scene"], n_frames: Optional[int] = None, seed: Optional[int] = None,
            start: int = 0) -> Frames:
     """Frames of a scene, as ``rollsim render`` writes them (without the PNG files).
@@ -306,7 +510,12 @@ def render(scene: Union[str, Path, "Scene"], n_frames: Optional[int] = None, see
     >>> frames.truth[0].sdus[0].fully_visible in (True, False)
     True
     """
-    loaded = load_scene(scene, seed=seed)
+    args = _Arguments("render")
+    args.scene("scene", scene)
+    n_frames = args.integer("n_frames", n_frames, 0, MAX_FRAMES, optional=True)
+    _frame_span(args, n_frames or 0, start)
+    seed = args.seed("seed", seed, optional=True)
+    loaded = _load(args, "scene", scene, [] if seed is None else [f"seed={seed}"])
     return Frames(loaded, loaded.frames if n_frames is None else n_frames, start)
 
 
@@ -355,19 +564,55 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
     >>> rs.decode(frames, decoder=lambda image, settings: [])
     []
     """
+    from decoder.io import FrameError
     from rollsim.decode import settings_from_scene
-    from rollsim.records import as_decoded_record
 
+    args = _Arguments("decode")
+    args.iterable("frames", frames, "Frames (from rollsim.render), or an iterable of Frame or of image arrays")
+    args.callable("decoder", decoder, "a callable decoder(image, settings) or None")
     chosen = scene if scene is not None else getattr(frames, "scene", None)
     if chosen is None:
-        raise ValueError("decode: give scene= for frames that are arrays")
-    settings = settings_from_scene(load_scene(chosen))
+        raise args.error("scene", "give scene= for frames that are arrays (the link and camera the decoder is told of)")
+    settings = settings_from_scene(_load(args, "scene", chosen))
     run = decoder if decoder is not None else rollsim_decoder
     records: list[dict] = []
     for number, item in enumerate(frames):
-        index, image = (item.index, item.image) if isinstance(item, Frame) else (number, np.asarray(item))
-        records.extend(as_decoded_record(found, index) for found in run(image, settings))
+        index, image = _frame_image(args, number, item)
+        try:
+            found = run(image, settings)
+        except FrameError as exc:  # the decoder's own check of the image (rows, channels, NaN)
+            raise args.error(f"frames[{number}]", str(exc)) from None
+        records.extend(_decoded(args, index, found))
     return records
+
+
+def _frame_image(args: _Arguments, number: int, item) -> tuple[int, np.ndarray]:
+    """The index and image of item ``number`` of ``frames``: a Frame, or an array numbered ``number``."""
+    if isinstance(item, Frame):
+        return item.index, item.image
+    expected = "a Frame or an image array (2-D gray or 3-D colour, of numbers)"
+    try:
+        image = np.asarray(item)
+    except (TypeError, ValueError):  # a ragged list
+        raise args.refuse(f"frames[{number}]", expected, item, ApiValueError) from None
+    if image.dtype.kind not in "buif":
+        raise args.refuse(f"frames[{number}]", expected, item)
+    if image.ndim not in (2, 3):
+        raise args.refuse(f"frames[{number}]", expected, item, ApiValueError)
+    return number, image
+
+
+def _decoded(args: _Arguments, index: int, found) -> list[dict]:
+    """A decoder's finds in frame ``index`` as ``decoded.jsonl`` records, each checked against the schema."""
+    from rollsim.records import as_decoded_record
+
+    expected = "decoder(image, settings) to return an iterable of records"
+    if isinstance(found, (str, bytes, Mapping)) or not isinstance(found, Iterable):
+        raise args.error("decoder", f"expected {expected}, got {short_repr(found)} (frame {index})", ApiTypeError)
+    try:
+        return [as_decoded_record(record, index) for record in found]
+    except RollsimError as exc:  # a record off the schema: the decoder's fault, named so
+        raise args.error("decoder", str(exc)) from None
 
 
 # ----------------------------------------------------------------- evaluate
@@ -388,6 +633,11 @@ class Result:
     """
 
     def __init__(self, evaluation, truth: Truth):
+        from rollsim.evaluate import Evaluation
+
+        args = _Arguments("Result")
+        args.instance("evaluation", evaluation, Evaluation, "an Evaluation (from rollsim.evaluate.evaluate)")
+        args.instance("truth", truth, Truth, "a Truth (from Frames.truth)")
         self.outcomes = evaluation.outcomes
         self.false_decodes = evaluation.false_decodes
         self.summary = evaluation.summary
@@ -444,10 +694,26 @@ def evaluate(truth: Union[Truth, Frames], decoded: Sequence[Mapping]) -> Result:
     from rollsim.evaluate import evaluate as run
     from rollsim.transmitter import transmitter_from_scene
 
+    args = _Arguments("evaluate")
+    args.instance("truth", truth, (Truth, Frames), "a Truth or Frames (from rollsim.render)")
+    records = _decoded_records(args, decoded)
     if isinstance(truth, Frames):
         truth = truth.truth
-    records = [dict(d) for d in decoded]
     return Result(run(truth.to_records(), records, transmitter_from_scene(truth.scene)), truth)
+
+
+def _decoded_records(args: _Arguments, decoded) -> list[dict]:
+    """``decoded`` as ``decoded.jsonl`` records, each checked against the schema (as ``rollsim evaluate`` does)."""
+    from rollsim.records import record_error
+
+    records = []
+    for number, item in enumerate(args.iterable("decoded", decoded, "a sequence of decoded.jsonl records (dicts)")):
+        record = dict(args.instance(f"decoded[{number}]", item, Mapping, "a decoded.jsonl record (a dict)"))
+        problem = record_error(record)
+        if problem is not None:
+            raise args.error(f"decoded[{number}]", problem)
+        records.append(record)
+    return records
 
 
 # ---------------------------------------------------------------- calibrate
@@ -467,6 +733,14 @@ class MmbpModel:
 
     fit: Any
     n_packets: int
+
+    def __post_init__(self):
+        from rollsim.calibrate.mmbp import MmbpFit
+
+        args = _Arguments("MmbpModel")
+        args.instance("fit", self.fit, MmbpFit, "an MmbpFit (from rollsim.calibrate.fit_mmbp)")
+        # Frozen: the checked count replaces a numpy integer through object's setter.
+        object.__setattr__(self, "n_packets", args.integer("n_packets", self.n_packets, 1))
 
     @property
     def M(self) -> int:
@@ -490,10 +764,18 @@ class MmbpModel:
         strategy : {"rp", "rs"}
         n_packets : int, optional
             Default :attr:`n_packets`.
+
+        Raises
+        ------
+        ApiTypeError, ApiValueError
+            An argument of the wrong type or value, naming it.
         """
         from rollsim.channel.analytic import mmbp_p_message
 
-        n = self.n_packets if n_packets is None else n_packets
+        args = _Arguments("MmbpModel.p_message")
+        r = args.integer("r", r, 1)
+        strategy = args.choice("strategy", strategy, ("rp", "rs"))
+        n = self.n_packets if n_packets is None else args.integer("n_packets", n_packets, 1)
         return float(mmbp_p_message(self.M, self.N, r, self.p_e, n, strategy))
 
 
@@ -545,6 +827,10 @@ def calibrate(result: Result, n_packets: Optional[int] = None, seed: int = 1) ->
     from rollsim.calibrate import calibrate as run
     from rollsim.calibrate import fit_ge, fit_mmbp
 
+    args = _Arguments("calibrate")
+    args.instance("result", result, Result, "a Result (from rollsim.evaluate)")
+    n_packets = args.integer("n_packets", n_packets, 1, optional=True)
+    seed = args.seed("seed", seed)
     trace = result.trace()
     report = run(trace, n_packets, seed)
     n = report["message"]["n_packets"]
@@ -580,8 +866,108 @@ def simulate(scene: Union[str, Path, "Scene"], channel: str = "mmbp", runs: int 
     >>> summary["runs"]
     20
     """
-    from rollsim.channel.scene_channel import scene_relaxations, simulate_scene
-    from rollsim.scene import load_scene as load
+    from rollsim.channel.scene_channel import CHANNEL_KINDS, scene_relaxations, simulate_scene
 
-    loaded = scene if not isinstance(scene, (str, Path)) else load(scene, relax=scene_relaxations(channel))
+    args = _Arguments("simulate")
+    args.scene("scene", scene)
+    channel = args.choice("channel", channel, CHANNEL_KINDS)
+    runs = args.integer("runs", runs, 1)
+    seed = args.seed("seed", seed, optional=True)
+    workers = args.integer("workers", workers, 1, optional=True)
+    loaded = _load(args, "scene", scene, relax=scene_relaxations(channel))
     return simulate_scene(loaded, channel, runs=runs, seed=seed, workers=workers)
+
+
+# -------------------------------------------------------------------- sweep
+
+# sweep's keyword options that are counts (see rollsim.sweeps.sweep).
+_SWEEP_COUNTS = ("runs", "frames", "max_emissions")
+# The most local Dask workers a sweep starts, as rollsim sweep --workers.
+MAX_SWEEP_WORKERS = 1024
+
+
+def _sweep_options(args: _Arguments, options: Mapping[str, Any]) -> dict:
+    """The ``**options`` of :func:`sweep` checked: known names, each of its type."""
+    from rollsim.sweeps.spec import CHANNELS, DEFAULTS
+
+    known = (*DEFAULTS, "seed")
+    checked = {}
+    for name, value in options.items():
+        if name not in known:
+            raise args.error(name, f"not an argument of sweep (its options: {', '.join(known)})", ApiTypeError)
+        if value is None:
+            continue
+        if name in _SWEEP_COUNTS:
+            checked[name] = args.integer(name, value, 1)
+        elif name == "seed":
+            checked[name] = args.seed(name, value)
+        elif name == "channel":
+            checked[name] = args.choice(name, value, CHANNELS)
+        else:
+            checked[name] = args.flag(name, value)
+    return checked
+
+
+def _axes(args: _Arguments, name: str, value) -> Optional[dict]:
+    """``grid`` or ``zip``: ``{key: values}``, values as text (``"5:40:5"``) or a list."""
+    if value is None:
+        return None
+    axes = args.instance(name, value, Mapping, "a mapping of scene keys to values, e.g. {'link.distance_cm': [5, 10]}")
+    for key, values in axes.items():
+        args.instance(f"{name} key", key, str, "a scene key (str), e.g. 'link.distance_cm'")
+        args.instance(f"{name}[{clip(repr(key), 40)}]", values, (str, list, tuple, np.ndarray),
+                      "values as text ('5:40:5', '5,10') or a list")
+    return dict(axes)
+
+
+def sweep(scene: Union[str, Path, "Scene"], grid: Optional[Mapping[str, Any]] = None, stage: str = "analytic", *,
+          zip: Optional[Mapping[str, Any]] = None, overrides=(), out=None, client=None,
+          workers: Optional[int] = None, scheduler: Optional[str] = None, connect_timeout_s: Optional[float] = None,
+          resume: bool = False, force: bool = False, **options):
+    """Run a sweep of ``scene`` over ``grid`` on Dask; the results as a table.
+
+    The arguments are checked here, before any cluster starts; the sweep is
+    :func:`rollsim.sweeps.sweep`'s, which documents every parameter.
+
+    Parameters
+    ----------
+    scene : str, Path or Scene
+        See :func:`load_scene`.
+    grid, zip : mapping, optional
+        ``{key: values}``, each key's values as text (``"5:40:5"``) or a list.
+    stage : {"analytic", "simulate", "run", "envelope"}
+    overrides : mapping or iterable of str
+        ``{"link.distance_cm": 10}`` or ``["link.distance_cm=10"]``.
+    out : str or Path, optional
+        Default a new temporary directory (kept when the sweep finishes,
+        removed when it fails).
+    client, workers, scheduler, connect_timeout_s, resume, force, **options
+        As for :func:`rollsim.sweeps.sweep`.
+
+    Returns
+    -------
+    pandas.DataFrame or Path
+
+    Examples
+    --------
+    >>> import rollsim as rs
+    >>> table = rs.sweep("paper-default", grid={"link.distance_cm": [5, 10]}, workers=1)  # doctest: +SKIP
+    >>> rs.sweep("paper-default", grid={"link.distance_cm": [5, 10]}, stage="fast")
+    Traceback (most recent call last):
+    ...
+    rollsim.errors.ApiValueError: rollsim.sweep: stage: expected one of 'analytic', 'simulate', 'run', 'envelope', got 'fast'
+    """
+    from rollsim.sweeps import sweep as run
+    from rollsim.sweeps.spec import STAGES
+
+    args = _Arguments("sweep")
+    checked = {"grid": _axes(args, "grid", grid), "stage": args.choice("stage", stage, STAGES),
+               "zip": _axes(args, "zip", zip), "overrides": args.texts("overrides", overrides),
+               "out": None if out is None else args.path("out", out),
+               "workers": args.integer("workers", workers, 1, MAX_SWEEP_WORKERS, optional=True),
+               "scheduler": None if scheduler is None else args.instance("scheduler", scheduler, str, "an address (str)"),
+               "connect_timeout_s": args.positive("connect_timeout_s", connect_timeout_s, optional=True),
+               "resume": args.flag("resume", resume), "force": args.flag("force", force),
+               **_sweep_options(args, options)}
+    # rollsim.sweeps.sweep is annotated as taking a Scene; it takes a name or file too.
+    return run(cast(Any, args.scene("scene", scene)), client=client, **checked)

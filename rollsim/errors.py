@@ -92,6 +92,22 @@ class BudgetError(RollsimError):
     """
 
 
+class ApiArgumentError(RollsimError):
+    """A Python API function (:mod:`rollsim.api`) was given an argument it cannot take.
+
+    The message is one line: ``rollsim.FUNCTION: ARGUMENT: expected ..., got
+    ...``. Catch this class for either kind below.
+    """
+
+
+class ApiTypeError(ApiArgumentError, TypeError):
+    """An API argument of the wrong type (``None`` for a scene, ``True`` for a count)."""
+
+
+class ApiValueError(ApiArgumentError, ValueError):
+    """An API argument of the right type and a wrong value (a negative count, an unknown name)."""
+
+
 class SystemFailure(RollsimError):
     """The operating system refused (full disk, read-only target, ...).
 

@@ -798,13 +798,19 @@ def check_directory_files(directory: PathLike, names: Iterable[str], force: bool
         raise OutputError(f"{directory}: exists and is not a directory")
     if directory.is_dir():
         return check_file_targets(paths, force)
-    from rollsim.budget import existing_ancestor
-
-    ancestor = existing_ancestor(directory)
+    ancestor = _missing_parts(directory)[0].parent
     if not ancestor.is_dir():
         raise OutputError(f"{directory}: {ancestor} is not a directory")
     _check_writable_dir(ancestor, directory)
     return paths
+
+
+def _missing_parts(directory: PathLike) -> list[Path]:
+    """The folders of ``directory`` that do not exist, outermost first (at least ``directory`` itself)."""
+    missing = [Path(os.path.abspath(directory))]
+    while not os.path.lexists(missing[0].parent) and missing[0].parent != missing[0]:
+        missing.insert(0, missing[0].parent)
+    return missing
 
 
 def write_files_into(directory: PathLike, contents: dict, force: bool = False) -> None:
@@ -813,11 +819,7 @@ def write_files_into(directory: PathLike, contents: dict, force: bool = False) -
     The directories made here are removed again when the files cannot be
     written: a failed command leaves nothing behind.
     """
-    made: list[Path] = []
-    missing = Path(directory)
-    while not os.path.lexists(missing) and missing != missing.parent:
-        made.insert(0, missing)
-        missing = missing.parent
+    made = _missing_parts(directory) if not os.path.lexists(directory) else []
     try:
         with os_failures():
             for folder in made:

@@ -15,10 +15,10 @@ import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, cast, Optional
+from typing import TYPE_CHECKING, Callable, Optional, Union, cast
 
 from rollsim.sweeps.grid import Axis, Cell, parse_values
-from rollsim.sweeps.spec import STAGES, SweepSpec, spec_from_arguments, validate_cells
+from rollsim.sweeps.spec import DEFAULTS, STAGES, SweepSpec, spec_from_arguments, validate_cells
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -229,7 +229,7 @@ def _finish(directory, resolved, spec: SweepSpec, computed: int, submit=None) ->
     return SweepResult(directory.shown, rows, columns, computed, failed)
 
 
-def sweep(scene: Scene, grid: Optional[dict] = None, stage: str = "analytic", *, zip: Optional[dict] = None,
+def sweep(scene: Union[str, Path, Scene], grid: Optional[dict] = None, stage: str = "analytic", *, zip: Optional[dict] = None,
           overrides=(), out=None, client=None, workers: Optional[int] = None, scheduler: Optional[str] = None,
           connect_timeout_s: Optional[float] = None, resume: bool = False, force: bool = False, **options):
     """Run a sweep from Python; the results as a table.
@@ -270,6 +270,9 @@ def sweep(scene: Scene, grid: Optional[dict] = None, stage: str = "analytic", *,
     >>> list(table["M"])  # doctest: +SKIP
     [3, 2]
     """
+    unknown = sorted(set(options) - set(DEFAULTS))
+    if unknown:
+        raise TypeError(f"rollsim.sweep: unknown option {unknown[0]!r}; expected any of {', '.join(DEFAULTS)}")
     source, base = _scene_source(scene)
     spec = spec_from_arguments(source, grid=grid or {}, zipped=zip or {}, overrides=list(overrides), stage=stage,
                                options=options, base=base)
