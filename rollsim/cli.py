@@ -177,7 +177,7 @@ def cmd_validate(args) -> int:
     from rollsim.scene import load_scene
 
     problems: list[str] = []
-    for path in args.files:
+    for path in dict.fromkeys(args.files):  # a file named twice is checked once
         try:
             load_scene(path, args.overrides)
         except RollsimError as exc:

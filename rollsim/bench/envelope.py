@@ -476,13 +476,9 @@ def bench_envelope(maps: list[EnvelopeMap], frames: int, quick: bool = False, wo
     from rollsim.sweeps.engine import DaskEngine, worker_count
 
     start = time.perf_counter()
-    engine = DaskEngine(workers, scheduler, "envelope")
-    try:
-        client = engine.start()
+    with DaskEngine(workers, scheduler, "envelope").running() as client:
         results = run_maps(maps, frames, quick, client, seed, progress)
         n_workers = worker_count(client)
-    finally:
-        engine.close()
     return {"frames": frames, "quick": quick, "seconds": time.perf_counter() - start, "workers": n_workers,
             "machine": machine(), "ok_level": OK_LEVEL,
             "boundaries": [boundaries(m, results[m.name]) for m in maps], "maps": results}

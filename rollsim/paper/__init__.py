@@ -136,12 +136,8 @@ def run_paper(out: Path, options: PaperOptions, *, workers: Optional[int] = None
     from rollsim.sweeps.engine import DaskEngine
 
     with staged_directory(out, force=force) as staging:
-        engine = DaskEngine(workers=workers, scheduler=scheduler, stage="run")
-        try:
-            client = engine.start()
+        with DaskEngine(workers=workers, scheduler=scheduler, stage="run").running() as client:
             result = compute_comparisons(options, client, progress)
-        finally:
-            engine.close()
         document = paper_document(result)
         write_report(Path(staging), document, result, options, command)
     return document

@@ -146,6 +146,16 @@ class DaskEngine:
         self.client.register_plugin(_WorkerSetup(STAGE_MODULES[self.stage]))
         return self.client
 
+    @contextlib.contextmanager
+    def running(self):
+        """:meth:`start`, then :meth:`close` on the way out (at once, workers killed, when stopped)."""
+        try:
+            yield self.start()
+        except BaseException:
+            self.close(stopping=True)
+            raise
+        self.close()
+
     def _connect(self):
         """A client of the user's scheduler, probed first and made within the deadline."""
         from distributed import Client
