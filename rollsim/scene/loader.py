@@ -30,6 +30,7 @@ from rollsim.protocol.rlnc import seed_space
 from rollsim.scene.effects import normalise_effects
 from rollsim.scene.model import Scene, scene_model
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS
+from rollsim.scene.si import si_errors
 
 ROW_TIMING_KEYS = ("row_time_us", "ifg_ratio")
 
@@ -623,6 +624,16 @@ def _set_aside_zero_distance(merged: dict) -> tuple[dict, bool]:
     return _merge(merged, {"link": {"distance_cm": _DISTANCE_PLACEHOLDER_CM}}), True
 
 
+def _names_field_of(errors: Sequence[str], line: str) -> bool:
+    """Whether one of ``errors`` is about the field ``line`` (``key = value: ...``) is about.
+
+    A cross-field rule on the same field says more than the SI rule (the
+    range for this run), so its line is the one kept.
+    """
+    head = line.split(" = ", 1)[0] + " = "
+    return any(head in error for error in errors)
+
+
 def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[str] = (),
                     values: Optional[Mapping] = None, relax: Iterable[str] = (),
                     registry: Optional[Sequence[Effect]] = None) -> Scene:
@@ -670,6 +681,7 @@ def scene_from_dict(data: Mapping, source: str = "<scene>", overrides: Iterable[
         # model_copy does not validate: the one value the model's range refuses.
         scene = scene.model_copy(update={"link": scene.link.model_copy(update={"distance_cm": 0.0})})
     errors = consistency_errors(scene, source, relax)
+    errors += [f"{source}: {line}" for line in si_errors(scene) if not _names_field_of(errors, line)]
     if errors:
         raise SceneError(errors)
     return scene
