@@ -109,14 +109,10 @@ def check_loads_or_names_field(key: str, value: float, is_list: bool, glare: boo
             info = describe_scene(scene)
         except RollsimError as exc:
             # An effect's per-scene setup may refuse a value it cannot
-            # render (defocus: a blur circle over 1000 px), naming it.
-            assert key in str(exc), str(exc)
-            return
-        except ValueError as exc:
-            # Known and reported separately: the MMBP analysis refuses a
-            # cycle longer than its work budget (0.01 Hz frames, 10 MHz
-            # chips), with a ValueError rather than a RollsimError.
-            assert "for the exact sum" in str(exc), str(exc)
+            # render (defocus: a blur circle over 1000 px), naming it; the
+            # MMBP analysis refuses a cycle longer than its work budget
+            # (0.01 Hz frames, 10 MHz chips), naming what makes it long.
+            assert key in str(exc) or "for the exact sum" in str(exc), str(exc)
             return
     bad = _nonfinite(info)
     # Documented: a link that never decodes expects inf emissions (rateless.rlnc_figures).
@@ -216,3 +212,15 @@ def test_any_float_loads_finite_or_is_refused_naming_its_field(field, value):
 def test_any_float_loads_finite_or_is_refused_naming_its_field_at_length(field, value, glare):
     key, is_list = field
     check_loads_or_names_field(key, value, is_list, glare=glare or _is_glare(key))
+
+
+@pytest.mark.parametrize("override, fragment", [
+    ("camera.frame_rate_hz=0.01", "the hyperperiod of the frame period and the PHY-SDU duration"),
+    ("link.clock_hz=1e7", "(camera.frame_rate_hz, link.clock_hz) is too long for the exact sum"),
+    ("channel.p_e=0.99999999", "p_e = 0.99999999 is too close to 1 for the exact sum"),
+])
+def test_an_exact_sum_over_its_work_budget_is_one_line_naming_the_cause(capsys, override, fragment):
+    code = main(["describe", "paper-default", "--set", override])
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err
+    assert err.count("\n") == 1 and fragment in err, err

@@ -82,6 +82,7 @@ import numpy as np
 
 from rollsim.budget import check_memory
 from rollsim.channel import phase_sweep
+from rollsim.errors import BudgetError
 from rollsim.validation import as_count as _as_count
 from rollsim.validation import as_positive as _as_positive
 from rollsim.validation import as_probability as _as_probability
@@ -120,6 +121,14 @@ _MAX_HYPERPERIOD = 10**7
 
 
 
+
+
+class ExactSumTooCostly(BudgetError, ValueError):
+    """The exact expected emissions would take more terms than the work budget.
+
+    A :class:`rollsim.errors.BudgetError` (one line, exit 2, naming what
+    makes the sum long) and a ``ValueError`` for callers of the analysis.
+    """
 
 
 def _check_cycle(M, N) -> tuple[int, int, int]:
@@ -822,10 +831,11 @@ def _expected_emissions_given_phase(
     # drops below 1e-16 (E[T | phase] >= 1): the size of the first chunk.
     needed = math.ceil(math.log(1e16 * H * n / one_minus[0]) / (a_vals[0] * -log_pe))
     if needed * idx_on.size > work_budget:
-        raise ValueError(
-            f"p_e = {p_e} is too close to 1 for the exact sum "
-            f"(~{needed} hyperperiods of {H} emissions per phase)"
-        )
+        # Few hyperperiods needed: the hyperperiod itself is what is long.
+        cause = (f"p_e = {p_e} is too close to 1 for the exact sum" if needed > 10 else
+                 "the hyperperiod of the frame period and the PHY-SDU duration (camera.frame_rate_hz, "
+                 "link.clock_hz) is too long for the exact sum")
+        raise ExactSumTooCostly(f"{cause} (~{needed} hyperperiods of {H} emissions per phase)")
     chunk = max(1, min(needed, chunk_elems // idx_on.size))
     j0 = 1
     while True:
@@ -883,9 +893,11 @@ def mmbp_expected_emissions(M, N, r, p_e: float, n_packets, strategy: str) -> fl
     Raises
     ------
     ValueError
-        For invalid inputs, or when the exact sum would be too expensive
-        (hyperperiod above 1e7 emissions, or ``p_e`` so close to 1 that
-        millions of hyperperiods are needed).
+        For invalid inputs.
+    ExactSumTooCostly
+        When the exact sum would be too expensive (hyperperiod above 1e7
+        emissions, or ``p_e`` so close to 1 that millions of hyperperiods
+        are needed); a ``ValueError`` too.
 
     Notes
     -----
@@ -903,7 +915,7 @@ def mmbp_expected_emissions(M, N, r, p_e: float, n_packets, strategy: str) -> fl
     period = r * n if strategy == "rp" else n
     H = period * C // math.gcd(period, C)
     if H > _MAX_HYPERPERIOD:
-        raise ValueError(
+        raise ExactSumTooCostly(
             f"hyperperiod lcm({'r*n_packets' if strategy == 'rp' else 'n_packets'}, C) = {H} "
             f"emissions exceeds {_MAX_HYPERPERIOD}; the exact sum is too expensive"
         )
