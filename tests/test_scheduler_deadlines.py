@@ -192,3 +192,30 @@ def test_a_second_signal_ends_a_clean_up_that_hangs(tmp_path):
     assert time.perf_counter() - start < 2
     assert process.returncode == 128 + signal.SIGINT
     assert err.splitlines() == ["rollsim: stopped by SIGINT again during clean-up; exiting now"]
+
+
+def test_the_dashboard_link_is_given_only_when_its_page_is_served(tmp_path):
+    import functools
+    import importlib.util
+    import types
+
+    from distributed import Client, LocalCluster
+
+    from rollsim.sweeps.engine import dashboard_link
+
+    (tmp_path / "status").write_text("<html>Bokeh Application</html>")
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(_Quiet, directory=str(tmp_path)))
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    try:
+        base = f"http://127.0.0.1:{server.server_address[1]}"
+        assert dashboard_link(types.SimpleNamespace(dashboard_link=f"{base}/status")) == f"{base}/status"
+        assert dashboard_link(types.SimpleNamespace(dashboard_link=f"{base}/nothing/here")) is None
+        assert dashboard_link(types.SimpleNamespace(dashboard_link=None)) is None
+    finally:
+        server.shutdown()
+        server.server_close()
+    if importlib.util.find_spec("bokeh") is None:
+        # A real scheduler without bokeh serves a page that asks for it.
+        with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster, \
+                Client(cluster, set_as_default=False) as client:
+            assert dashboard_link(client) is None

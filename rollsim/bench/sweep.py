@@ -61,7 +61,7 @@ def run_stage_phases(workers: int, frames: int, out: Path) -> dict:
 
     spec = spec_from_arguments(SCENE, grid=RUN_GRID, stage="run", options={"frames": frames})
     marks = {}
-    with local_cluster(workers, dashboard_address=None) as cluster, Client(cluster, set_as_default=False) as client:
+    with local_cluster(workers, dashboard_address=":0") as cluster, Client(cluster, set_as_default=False) as client:
         client.register_plugin(_WorkerSetup(STAGE_MODULES["run"]))
         done = [0]
 

@@ -15,7 +15,6 @@ gets its own result and error.
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import logging
 import math
 import threading
@@ -140,8 +139,10 @@ class DaskEngine:
         from rollsim.budget import memory_budget_bytes
 
         workers = self.workers or default_workers()
+        # A free port, never 8787: another cluster on the machine may hold it
+        # (Dask then warns on stderr), and without bokeh it serves no page.
         self.cluster = local_cluster(workers, memory_limit=max(2**28, memory_budget_bytes() // workers),
-                                     dashboard_address=":0" if dashboard_available() else None)
+                                     dashboard_address=":0")
         self.client = Client(self.cluster, set_as_default=False)
         self.client.register_plugin(_WorkerSetup(STAGE_MODULES[self.stage]))
         return self.client
@@ -279,8 +280,8 @@ def dashboard_link(client, timeout_s: float = 2.0) -> Optional[str]:
     """The address of the client's dashboard when it serves its status page, else None.
 
     Dask gives a link whether or not a dashboard runs (without bokeh on the
-    scheduler the address answers 404), so the page is asked for, within
-    ``timeout_s`` seconds.
+    scheduler the address answers with a page asking for it), so the page
+    is asked for, within ``timeout_s`` seconds.
     """
     import urllib.request
 
@@ -289,14 +290,11 @@ def dashboard_link(client, timeout_s: float = 2.0) -> Optional[str]:
         return None
     try:
         with urllib.request.urlopen(link, timeout=timeout_s) as response:  # noqa: S310 - the scheduler's own page
-            return link if response.status == 200 else None
+            page = response.read(4096) if response.status == 200 else b""
     except (OSError, ValueError):  # 404 (HTTPError is an OSError), refused, timed out
         return None
-
-
-def dashboard_available() -> bool:
-    """True when Dask's dashboard can serve pages here (it needs bokeh)."""
-    return importlib.util.find_spec("bokeh") is not None
+    # Without bokeh the scheduler answers with a page that says so.
+    return link if page and b"needs bokeh" not in page else None
 
 
 def batch_size(stage: str, cells: int, workers: int) -> int:
