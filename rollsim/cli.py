@@ -104,6 +104,25 @@ def _add_scene_output_options(parser: argparse.ArgumentParser) -> None:
     _add_set_option(parser)
 
 
+def _check_repeated_keys(args) -> None:
+    """A scene key given twice on the command line would be half dropped: refuse it.
+
+    Twice with ``--set``, or with ``--set`` and a sweep's ``--grid`` or
+    ``--zip`` (whose values replace the ``--set`` one in every cell).
+    """
+    from rollsim.scene.loader import split_key_value
+
+    seen: dict[str, str] = {}
+    given = [("--set", item) for item in getattr(args, "overrides", None) or []]
+    given += [(option, item) for option in ("--grid", "--zip") for item in getattr(args, option[2:], None) or []]
+    for option, item in given:
+        key = split_key_value(item, option, "KEY=VALUE")[0]
+        if key in seen:
+            twice = f"given twice with {option}" if seen[key] == option else f"given with {seen[key]} and {option}"
+            raise RollsimError(f"{option} {clip(key, 60)}: {twice}; give it once")
+        seen[key] = option
+
+
 def _file_outputs(args) -> list:
     """The file outputs a command was asked for (``--json FILE``, ``--plot``, ``--markdown``)."""
     paths = [getattr(args, "json", None), getattr(args, "plot", None), getattr(args, "markdown", None)]
@@ -965,6 +984,7 @@ def _run(args) -> int:
 
         # Every stage that connects (a sweep, the paper's, the envelope's) reads it there.
         os.environ[TIMEOUT_VAR] = repr(connect_timeout_s(args.connect_timeout))
+    _check_repeated_keys(args)
     _check_outputs(args)
     return args.func(args)
 

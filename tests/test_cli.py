@@ -118,3 +118,18 @@ def test_no_subcommand_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as info:
         main([])
     assert info.value.code == 2
+
+
+@pytest.mark.parametrize("argv, line", [
+    (["describe", "paper-default", "--set", "link.distance_cm=5", "--set", "link.distance_cm=10"],
+     "rollsim: error: --set link.distance_cm: given twice with --set; give it once"),
+    (["render", "paper-default", "--out", "out", "--set", "camera.iso=100", "--set", " camera.iso =200"],
+     "rollsim: error: --set camera.iso: given twice with --set; give it once"),
+    (["sweep", "paper-default", "--set", "link.distance_cm=5", "--grid", "link.distance_cm=5,10", "--out", "out"],
+     "rollsim: error: --grid link.distance_cm: given with --set and --grid; give it once"),
+])
+def test_a_key_given_twice_on_the_command_line_is_refused(tmp_path, monkeypatch, capsys, argv, line):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert capsys.readouterr().err.splitlines() == [line]
+    assert list(tmp_path.iterdir()) == []
