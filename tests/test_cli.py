@@ -133,3 +133,11 @@ def test_a_key_given_twice_on_the_command_line_is_refused(tmp_path, monkeypatch,
     assert main(argv) == 2
     assert capsys.readouterr().err.splitlines() == [line]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_scene_name_no_file_can_have_is_bad_input(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["describe", "a" * 300]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].endswith("...: not a usable scene file name (File name too long)")
+    assert len(err[0]) < 200

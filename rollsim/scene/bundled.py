@@ -6,6 +6,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Union
 
+from rollsim.errors import SceneError, clip
+
 
 def bundled_scene_dir() -> Path:
     """Folder of the bundled scene files."""
@@ -23,10 +25,19 @@ def resolve_scene_path(path: Union[str, Path]) -> Path:
     An existing file wins; otherwise ``NAME`` or ``NAME.yaml`` is looked up
     among the bundled scenes. A path that matches neither is returned as is,
     so that reading it reports it as not found.
+
+    Raises
+    ------
+    SceneError
+        A name no file can have (too long, a NUL character).
     """
     candidate = Path(path)
-    if candidate.exists():
-        return candidate
+    try:
+        if candidate.exists():
+            return candidate
+    except (OSError, ValueError) as exc:  # a name too long, a NUL character
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise SceneError(f"{clip(str(path), 120)}: not a usable scene file name ({reason})") from None
     name = candidate.name[:-5] if candidate.name.endswith(".yaml") else candidate.name
     if candidate.parent == Path("."):
         bundled = bundled_scene_dir() / f"{name}.yaml"
