@@ -19,7 +19,8 @@ argv runs as a real process in a sandbox of its own, and must:
   exit 143 and rollsim's one line.
 
 The default run draws :data:`EXAMPLES` argv lists, derandomised so that CI
-is repeatable; ``-m slow`` draws :data:`SLOW_EXAMPLES` fresh ones.
+is repeatable; ``-m slow`` draws :data:`SLOW_EXAMPLES` fresh ones (400, or
+``$ROLLSIM_FUZZ_EXAMPLES``).
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from rollsim.cli import build_parser
 
 EXAMPLES = 30
 MAX_ERROR_LINES = 5
-SLOW_EXAMPLES = 400
+SLOW_EXAMPLES = int(os.environ.get("ROLLSIM_FUZZ_EXAMPLES", "400"))
 WORK_S = 8.0
 STOP_S = 10.0
 # Options whose value is a path rollsim may write.
