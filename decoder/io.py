@@ -16,6 +16,7 @@ with a :class:`FrameError`, never guessed at.
 from __future__ import annotations
 
 import os
+import stat
 
 import cv2
 import numpy as np
@@ -137,7 +138,12 @@ def _read_bounded(name: str, max_pixels: int) -> bytes:
     # 8 bytes per pixel (RGBA16) plus filter bytes and chunk overhead bound
     # every valid PNG of that many pixels.
     limit = 8 * max_pixels + (1 << 20) + max_pixels // 8
-    with open(name, "rb") as handle:
+    # Opened without blocking and checked before reading: a pipe given as a
+    # frame would otherwise wait for a writer for ever, a device never end.
+    fd = os.open(name, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with open(fd, "rb", closefd=True) as handle:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise FrameReadError(name, "not a regular file (a pipe, device or socket is no PNG file)")
         data = handle.read(limit + 1)
     if len(data) > limit:
         raise FrameReadError(name, f"larger than any PNG of at most {max_pixels} pixels")

@@ -120,3 +120,14 @@ def test_as_frame_array_layouts():
 def test_as_frame_array_rejects(array, message):
     with pytest.raises(FrameError, match=message):
         as_frame_array(array)
+
+
+def test_a_pipe_named_as_a_frame_is_refused_without_waiting_for_a_writer(tmp_path):
+    import os
+
+    from decoder import FrameReadError, read_frame
+
+    fifo = tmp_path / "frame_000000.png"
+    os.mkfifo(fifo)
+    with pytest.raises(FrameReadError, match="not a regular file"):
+        read_frame(fifo)  # would block for ever if it opened the pipe for a plain read
