@@ -566,6 +566,7 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
     """
     from decoder.io import FrameError
     from rollsim.decode import settings_from_scene
+    from rollsim.records import scene_run_identifier
 
     args = _Arguments("decode")
     args.iterable("frames", frames, "Frames (from rollsim.render), or an iterable of Frame or of image arrays")
@@ -575,6 +576,8 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
         raise args.error("scene", "give scene= for frames that are arrays (the link and camera the decoder is told of)")
     settings = settings_from_scene(_load(args, "scene", chosen))
     run = decoder if decoder is not None else rollsim_decoder
+    # Records of rendered frames name their render, as rollsim decode's do.
+    run_id = scene_run_identifier(frames.scene) if isinstance(frames, Frames) else None
     records: list[dict] = []
     for number, item in enumerate(frames):
         index, image = _frame_image(args, number, item)
@@ -582,7 +585,7 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
             found = run(image, settings)
         except FrameError as exc:  # the decoder's own check of the image (rows, channels, NaN)
             raise args.error(f"frames[{number}]", str(exc)) from None
-        records.extend(_decoded(args, index, found))
+        records.extend(_decoded(args, index, found, run_id))
     return records
 
 
@@ -602,7 +605,7 @@ def _frame_image(args: _Arguments, number: int, item) -> tuple[int, np.ndarray]:
     return number, image
 
 
-def _decoded(args: _Arguments, index: int, found) -> list[dict]:
+def _decoded(args: _Arguments, index: int, found, run_id: Optional[str] = None) -> list[dict]:
     """A decoder's finds in frame ``index`` as ``decoded.jsonl`` records, each checked against the schema."""
     from rollsim.records import as_decoded_record
 
@@ -610,7 +613,7 @@ def _decoded(args: _Arguments, index: int, found) -> list[dict]:
     if isinstance(found, (str, bytes, Mapping)) or not isinstance(found, Iterable):
         raise args.error("decoder", f"expected {expected}, got {short_repr(found)} (frame {index})", ApiTypeError)
     try:
-        return [as_decoded_record(record, index) for record in found]
+        return [as_decoded_record(record, index, run_id) for record in found]
     except RollsimError as exc:  # a record off the schema: the decoder's fault, named so
         raise args.error("decoder", str(exc)) from None
 

@@ -303,7 +303,7 @@ def cmd_decode(args) -> int:
     workers = args.workers or _default_workers()
     with tqdm(total=n_files, unit="frame", desc="decode", disable=args.quiet or None) as bar:
         summary = decode_directory(
-            run_dir, settings, workers=workers, force=args.force,
+            run_dir, settings, workers=workers, force=args.force, timeout_s=args.decoder_timeout,
             on_error=lambda e: tqdm.write(f"rollsim: skipped frame {e['frame']}: {e['error']}", file=sys.stderr),
             progress=lambda n: bar.update(1),
         )
@@ -323,7 +323,8 @@ def cmd_evaluate(args) -> int:
         raise RollsimError(f"{args.dir}: the staging area of an unfinished run; evaluate a finished render directory")
     decoded = Path(args.decoded) if args.decoded is not None else None
     against = Path(args.against) if args.against is not None else None
-    result = evaluate_directory(Path(args.dir), force=args.force, decoded_file=decoded, against=against)
+    result = evaluate_directory(Path(args.dir), force=args.force, decoded_file=decoded, against=against,
+                                allow_foreign=args.allow_other_run)
     for warning in result.summary.get("warnings", []):
         print(f"rollsim: warning: {warning}", file=sys.stderr)
     print(format_summary(result.summary))
@@ -726,6 +727,8 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--decoder", metavar="MODULE:FUNCTION", default=None,
                    help="a decoder of your own: FUNCTION(image, settings) returning records of decoded.jsonl's "
                         "schema (default: rollsim's decoder)")
+    p.add_argument("--decoder-timeout", metavar="SECONDS", type=float, default=None,
+                   help="stop the run when the --decoder takes longer than SECONDS on one frame")
     _add_force(p, "existing decoded.jsonl and decode.json")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
@@ -739,6 +742,8 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--against", metavar="FILE.jsonl", default=None,
                    help="a second decoder's PHY-SDUs on the same frames: compare outcome by outcome "
                         "into DIR/comparison.json")
+    p.add_argument("--allow-other-run", action="store_true",
+                   help="score decoded records that name another render too (with a warning)")
     _add_force(p, "existing outcomes.csv, evaluation.json and comparison.json")
     p.set_defaults(func=cmd_evaluate)
 

@@ -19,17 +19,22 @@ depend on the number of workers.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
-from dataclasses import asdict, dataclass, field
+import signal
+import threading
+import time
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterator, Optional
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Optional
 
-from rollsim.errors import RollsimError
+from rollsim.errors import Interrupted, RollsimError, clip, short_repr
 from rollsim.outputs import staged_files
 from rollsim.parallel import chunked, ordered_chunk_map
 from rollsim.protocol import PhyFormat
+from rollsim.records import run_identifier
 from rollsim.transmitter import phy_from_scene
 
 if TYPE_CHECKING:
@@ -38,6 +43,10 @@ if TYPE_CHECKING:
 DECODED_NAME = "decoded.jsonl"
 SUMMARY_NAME = "decode.json"
 CHUNK_FRAMES = 8
+# The most records a decoder may return for one frame: a PHY-SDU spans rows,
+# so a frame holds a few hundred at most; more is a decoder gone wrong (an
+# endless generator), stopped before it fills the memory or the disk.
+MAX_RECORDS_PER_FRAME = 100_000
 
 
 @dataclass(frozen=True)
@@ -60,6 +69,10 @@ class DecodeSettings:
         Exposure time in seconds. With the chip pitch, rollsim's decoder
         reads exposures longer than a chip by sequence detection
         (:mod:`decoder.equalise`); without it, by thresholding.
+    decoder_timeout_s : float or None
+        The most seconds ``decoder`` may take on one frame (calling it and
+        reading what it returns); None for no limit. See
+        :func:`plugin_records` for what it can and cannot stop.
     """
 
     phy: PhyFormat
@@ -67,10 +80,11 @@ class DecodeSettings:
     row_time_s: Optional[float] = None
     decoder: Optional[str] = None
     exposure_s: Optional[float] = None
+    decoder_timeout_s: Optional[float] = None
 
     def __post_init__(self):
         for name, value in (("clock_hz", self.clock_hz), ("row_time_s", self.row_time_s),
-                            ("exposure_s", self.exposure_s)):
+                            ("exposure_s", self.exposure_s), ("decoder_timeout_s", self.decoder_timeout_s)):
             if value is not None and not (math.isfinite(value) and value > 0):
                 raise RollsimError(f"{name} = {value}: must be a finite number > 0")
 
@@ -178,8 +192,10 @@ def load_decoder(spec: str) -> Callable:
         sys.path.append(os.getcwd())
     try:
         module = importlib.import_module(module_name)
-    except Exception as exc:  # any error of the user's module is reported, not raised
-        raise RollsimError(f"--decoder {spec}: cannot import {module_name} ({type(exc).__name__}: {exc})") from None
+    except Interrupted:
+        raise
+    except BaseException as exc:  # sys.exit() at import too: the user's module is reported, never obeyed
+        raise RollsimError(f"--decoder {spec}: cannot import {module_name} ({_what_happened(exc)})") from None
     function = getattr(module, name, None)
     if function is None:
         raise RollsimError(f"--decoder {spec}: {module_name} has no {name}")
@@ -188,13 +204,184 @@ def load_decoder(spec: str) -> Callable:
     return function
 
 
-def _decode_chunk_with(chunk: list[tuple[int, str]], settings: DecodeSettings,
-                       max_pixels: int) -> list[tuple[int, list[dict], Optional[dict]]]:
+def _what_happened(exc: BaseException) -> str:
+    """A plug-in's exception in a few words: its type and message, and what a SystemExit means."""
+    if isinstance(exc, SystemExit):
+        return f"called sys.exit({short_repr(exc.code)})"
+    message = clip(" ".join(str(exc).split()), 160)
+    return f"{type(exc).__name__}: {message}" if message else type(exc).__name__
+
+
+class _Deadline(BaseException):
+    """A frame's deadline passed (raised by SIGALRM). Not an Exception, so a plug-in's ``except Exception`` lets it by."""
+
+
+# setitimer refuses delays beyond its own range; no deadline is that long.
+_MAX_TIMER_S = 1e8
+
+
+class _Alarm:
+    """A SIGALRM timer that raises :class:`_Deadline` while armed, and puts back what it replaced.
+
+    The previous SIGALRM handler and timer are restored by :meth:`stop`
+    (that timer less the time spent here), so the alarm may run in the
+    command's own process or in a caller's.
+    """
+
+    def __init__(self, seconds: float):
+        self.seconds = min(seconds, _MAX_TIMER_S)
+        self.armed = False
+        self.passed = False
+        self.started = False
+        self.previous: Any = None
+        self.earlier = (0.0, 0.0)
+        self.began = 0.0
+
+    def _ring(self, signum, frame):
+        self.passed = True
+        if self.armed:
+            raise _Deadline
+
+    def start(self) -> None:
+        """Note the handler and timer in place, then arm (refused outside the main thread)."""
+        if threading.current_thread() is not threading.main_thread():
+            raise RollsimError("decoder_timeout_s: a deadline needs the main thread (it is a SIGALRM timer)")
+        self.earlier = signal.getitimer(signal.ITIMER_REAL)
+        self.began = time.monotonic()
+        self.previous = signal.signal(signal.SIGALRM, self._ring)
+        self.started = True
+        self.armed = True
+        signal.setitimer(signal.ITIMER_REAL, self.seconds)
+
+    def stop(self) -> None:
+        """Disarm, and put back the handler and timer :meth:`start` found."""
+        if not self.started:
+            return
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        # None: a handler not set from Python, which Python cannot put back; the default is the nearest.
+        signal.signal(signal.SIGALRM, signal.SIG_DFL if self.previous is None else self.previous)
+        delay, interval = self.earlier
+        if delay > 0:
+            signal.setitimer(signal.ITIMER_REAL, max(1e-6, delay - (time.monotonic() - self.began)), interval)
+
+
+def _within(seconds: Optional[float], call: Callable[[], list]) -> tuple[list, bool]:
+    """``call()`` under a deadline of ``seconds`` (None: none); its result and whether the deadline passed.
+
+    Raises
+    ------
+    _Deadline
+        The deadline passed during ``call``.
+    """
+    if seconds is None:
+        return call(), False
+    alarm = _Alarm(seconds)
+    try:
+        alarm.start()
+        result = call()
+    finally:
+        # Disarmed before stop() is called: an alarm ringing from here on
+        # (at stop's first line, say) only notes the time, so the handler
+        # and timer are always put back.
+        try:
+            alarm.armed = False
+        finally:
+            alarm.stop()
+    return result, alarm.passed
+
+
+def _too_slow(settings: DecodeSettings, index: int) -> RollsimError:
+    return RollsimError(f"--decoder {settings.decoder}: frame {index} took more than "
+                        f"{settings.decoder_timeout_s:g} s (--decoder-timeout)")
+
+
+def _records_of(found, index: int, run: Optional[str]) -> list[dict]:
+    """What a plug-in returned for frame ``index``, as checked ``decoded.jsonl`` records.
+
+    Runs the plug-in's code too (a generator's body, ``to_record``), so it is
+    called under the same guard and deadline as the plug-in itself.
+    """
+    from rollsim.records import as_decoded_record
+
+    not_records = RollsimError(f"frame {index}: returned {short_repr(found)}, not an iterable of records "
+                               "(a list of dicts, say)")
+    if found is None or isinstance(found, (dict, str, bytes)):  # iterable, but not of records
+        raise not_records
+    try:
+        items = iter(found)
+    except TypeError:
+        raise not_records from None
+    found = list(itertools.islice(items, MAX_RECORDS_PER_FRAME + 1))
+    if len(found) > MAX_RECORDS_PER_FRAME:
+        raise RollsimError(f"frame {index}: returned more than {MAX_RECORDS_PER_FRAME} records")
+    return [as_decoded_record(f, index, run) for f in found]
+
+
+def plugin_records(function: Callable, image, settings: DecodeSettings, index: int, source: str,
+                   run: Optional[str] = None) -> list[dict]:
+    """Run a decoder of one's own on one frame; its records, checked, or one line saying why not.
+
+    Parameters
+    ----------
+    function : callable
+        ``function(image, settings) -> iterable of records`` (:func:`load_decoder`).
+    image : ndarray
+    settings : DecodeSettings
+        ``settings.decoder`` names the plug-in in messages;
+        ``settings.decoder_timeout_s`` is the frame's deadline.
+    index : int
+        The frame's index (numbers the records).
+    source : str
+        The frame's file, for messages.
+    run : str, optional
+        The render's identifier, written into every record.
+
+    Raises
+    ------
+    RollsimError
+        Naming the plug-in and the frame: anything the plug-in raised,
+        ``sys.exit()``, ``KeyboardInterrupt`` and ``GeneratorExit``
+        included; a return value that is no iterable of records; a record
+        off the schema (naming the field: NaN and infinities too); the
+        deadline passed.
+    Interrupted
+        SIGINT or SIGTERM reached the command meanwhile: the command's own
+        signal handling, passed on.
+
+    Notes
+    -----
+    The deadline is a SIGALRM timer in the process that runs the plug-in
+    (a worker's main thread, or the command's with one worker). Python runs
+    signal handlers between bytecodes only, so a plug-in inside a C call
+    (``sum(range(10**10))``, a numpy operation, a ``ctypes`` call) is stopped
+    when that call returns, and one that never returns is never stopped;
+    nor is one that catches every ``BaseException`` and carries on (its
+    frame still fails when it returns). Sleeping, waiting on I/O and
+    matching regular expressions are interrupted on time.
+    """
+    name = f"--decoder {settings.decoder}"
+    try:
+        records, late = _within(settings.decoder_timeout_s,
+                                lambda: _records_of(function(image, settings), index, run))
+    except _Deadline:
+        raise _too_slow(settings, index) from None
+    except Interrupted:
+        raise
+    except RollsimError as exc:
+        raise RollsimError(f"{name}: {source}: {exc}") from None
+    except BaseException as exc:  # the plug-in's exit or exception is reported, never obeyed
+        raise RollsimError(f"{name}: failed on frame {index} ({source}): {_what_happened(exc)}") from None
+    if late:  # the plug-in caught the deadline itself and went on
+        raise _too_slow(settings, index)
+    return records
+
+
+def _decode_chunk_with(chunk: list[tuple[int, str]], settings: DecodeSettings, max_pixels: int,
+                       run: Optional[str] = None) -> list[tuple[int, list[dict], Optional[dict]]]:
     """:func:`_decode_chunk` for a decoder other than rollsim's (``settings.decoder``)."""
     from decoder import FrameDecode, FrameError, read_frame
 
     from rollsim.protocol.frames import frame_index_from_name
-    from rollsim.records import as_decoded_record
 
     function = load_decoder(str(settings.decoder))
     out: list[tuple[int, list[dict], Optional[dict]]] = []
@@ -205,43 +392,55 @@ def _decode_chunk_with(chunk: list[tuple[int, str]], settings: DecodeSettings,
         except FrameError as exc:
             out.append((index, [], FrameDecode(index, source, (), str(exc)).error_record()))
             continue
-        try:
-            found = list(function(image, settings))
-        except Exception as exc:  # the user's decoder failed on this frame: say where, and stop
-            raise RollsimError(f"--decoder {settings.decoder}: failed on {source} "
-                               f"({type(exc).__name__}: {exc})") from None
-        try:
-            records = [as_decoded_record(f, index) for f in found]
-        except RollsimError as exc:
-            raise RollsimError(f"--decoder {settings.decoder}: {source}: {exc}") from None
-        out.append((index, records, None))
+        out.append((index, plugin_records(function, image, settings, index, source, run), None))
     return out
 
 
-def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings,
-                  max_pixels: int) -> list[tuple[int, list[dict], Optional[dict]]]:
+def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings, max_pixels: int,
+                  run: Optional[str] = None) -> list[tuple[int, list[dict], Optional[dict]]]:
     from decoder import decode_frames
 
     if settings.decoder is not None:
-        return _decode_chunk_with(chunk, settings, max_pixels)
+        return _decode_chunk_with(chunk, settings, max_pixels, run)
     first = chunk[0][0]
     out = []
+    provenance = {} if run is None else {"run": run}
     for result in decode_frames([path for _, path in chunk], settings.phy, settings.clock_hz, settings.row_time_s,
                                 first_frame=first, max_pixels=max_pixels, exposure_s=settings.exposure_s):
-        out.append((result.frame, result.to_records(), result.error_record()))
+        out.append((result.frame, [{**r, **provenance} for r in result.to_records()], result.error_record()))
     return out
 
 
-def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1) -> Iterator[tuple[int, list[dict], Optional[dict]]]:
+def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1,
+                 run: Optional[str] = None) -> Iterator[tuple[int, list[dict], Optional[dict]]]:
     """Decode frame files; yield ``(frame, records, error)`` in file order.
 
     A file's frame index is the last number in its name, else its position.
     ``error`` is None for a frame that was read, else a record naming the
     file and what is wrong with it (a frame too large for the memory budget
-    is one of these: :func:`frame_pixel_limit`).
+    is one of these: :func:`frame_pixel_limit`). Every record carries
+    ``run`` when given (:func:`rollsim.records.run_identifier`).
+
+    Raises
+    ------
+    RollsimError
+        A decoder of one's own failed (:func:`plugin_records`), or a worker
+        process died (killed by the system, or by a decoder's ``os._exit``
+        or crash).
     """
+    from concurrent.futures.process import BrokenProcessPool
+
     chunks = chunked(list(enumerate(os.fspath(p) for p in paths)), CHUNK_FRAMES)
-    yield from ordered_chunk_map(_decode_chunk, chunks, workers, settings, frame_pixel_limit(workers))
+    done = 0
+    try:
+        for item in ordered_chunk_map(_decode_chunk, chunks, workers, settings, frame_pixel_limit(workers), run):
+            done += 1
+            yield item
+    except BrokenProcessPool:
+        who = f"--decoder {settings.decoder}" if settings.decoder else "decode"
+        first = os.path.basename(paths[min(done, len(paths) - 1)])
+        raise RollsimError(f"{who}: a worker process died while decoding the frames from {first} on (killed, "
+                           "out of memory, or the decoder exited or crashed)") from None
 
 
 def _relative_error(error: dict, run_dir: Path) -> dict:
@@ -262,6 +461,7 @@ def decode_directory(
     force: bool = False,
     on_error: Optional[Callable[[dict], None]] = None,
     progress: Optional[Callable[[int], None]] = None,
+    timeout_s: Optional[float] = None,
 ) -> DecodeSummary:
     """Decode every frame of ``run_dir``; write ``decoded.jsonl`` and ``decode.json``.
 
@@ -282,18 +482,33 @@ def decode_directory(
         Called with the error record of each unreadable frame, as it comes.
     progress : callable, optional
         Called with the number of frames done after each frame.
+    timeout_s : float, optional
+        The most seconds a decoder of one's own (``settings.decoder``) may
+        take on one frame; replaces ``settings.decoder_timeout_s`` when given.
 
     Returns
     -------
     DecodeSummary
+
+    Raises
+    ------
+    RollsimError
+        No frames; an existing output without ``force``; a decoder of one's
+        own that failed, exited, returned records off the schema or passed
+        its deadline (:func:`plugin_records`): nothing is written then.
     """
     run_dir = Path(run_dir)
+    if timeout_s is not None:
+        settings = replace(settings, decoder_timeout_s=timeout_s)
+    if settings.decoder_timeout_s is not None and settings.decoder is None:
+        raise RollsimError("--decoder-timeout: applies to a decoder of your own (--decoder) only")
     files = frame_files(run_dir)
+    run = run_identifier(run_dir)
     targets = [run_dir / DECODED_NAME, run_dir / SUMMARY_NAME]
     summary = DecodeSummary(settings, frames=len(files))
     with staged_files(targets, force) as staged:
         with staged.open(targets[0]) as out:
-            for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers), start=1):
+            for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers, run), start=1):
                 for record in records:
                     out.write(json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n")
                 summary.sdus += len(records)
