@@ -218,6 +218,7 @@ def _load(args: _Arguments, name: str, scene, texts: Sequence[str] = (), relax: 
     """The scene ``scene`` (checked as argument ``name``) with the overrides ``texts``."""
     from rollsim.scene import load_scene as load
     from rollsim.scene import scene_from_dict, scene_to_dict
+    from rollsim.scene.bundled import SceneNameError
     from rollsim.scene.model import Scene
 
     scene = args.scene(name, scene)
@@ -225,7 +226,9 @@ def _load(args: _Arguments, name: str, scene, texts: Sequence[str] = (), relax: 
         return scene_from_dict(scene_to_dict(scene), scene.name, texts, relax=relax) if texts else scene
     try:
         return load(scene if isinstance(scene, str) else Path(os.fspath(scene)), texts, relax=relax)
-    except OSError as exc:  # a name the OS will not look up (too long, ...): the user's value
+    except SceneNameError as exc:  # a name the OS will not look up (too long, ...): the user's value
+        raise args.error(name, f"cannot read {short_repr(scene)} ({str(exc).rsplit('(', 1)[-1].rstrip(')')})") from None
+    except OSError as exc:
         raise args.error(name, f"cannot read {short_repr(scene)} ({exc.strerror or exc})") from None
 
 

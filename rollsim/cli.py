@@ -116,7 +116,10 @@ def _check_repeated_keys(args) -> None:
     given = [("--set", item) for item in getattr(args, "overrides", None) or []]
     given += [(option, item) for option in ("--grid", "--zip") for item in getattr(args, option[2:], None) or []]
     for option, item in given:
-        key = split_key_value(item, option, "KEY=VALUE")[0]
+        try:
+            key = split_key_value(item, option, "KEY=VALUE")[0]
+        except RollsimError:
+            continue  # malformed: the command's own reading names the form it expects
         if key in seen:
             twice = f"given twice with {option}" if seen[key] == option else f"given with {seen[key]} and {option}"
             raise RollsimError(f"{option} {clip(key, 60)}: {twice}; give it once")

@@ -9,6 +9,10 @@ from typing import Union
 from rollsim.errors import SceneError, clip
 
 
+class SceneNameError(SceneError):
+    """A scene name no file can have (too long, a NUL character)."""
+
+
 def bundled_scene_dir() -> Path:
     """Folder of the bundled scene files."""
     return Path(str(resources.files("rollsim.bundled_scenes")))
@@ -28,7 +32,7 @@ def resolve_scene_path(path: Union[str, Path]) -> Path:
 
     Raises
     ------
-    SceneError
+    SceneNameError
         A name no file can have (too long, a NUL character).
     """
     candidate = Path(path)
@@ -37,7 +41,7 @@ def resolve_scene_path(path: Union[str, Path]) -> Path:
             return candidate
     except (OSError, ValueError) as exc:  # a name too long, a NUL character
         reason = getattr(exc, "strerror", None) or str(exc)
-        raise SceneError(f"{clip(str(path), 120)}: not a usable scene file name ({reason})") from None
+        raise SceneNameError(f"{clip(str(path), 120)}: not a usable scene file name ({reason})") from None
     name = candidate.name[:-5] if candidate.name.endswith(".yaml") else candidate.name
     if candidate.parent == Path("."):
         bundled = bundled_scene_dir() / f"{name}.yaml"
