@@ -219,3 +219,28 @@ def test_the_dashboard_link_is_given_only_when_its_page_is_served(tmp_path):
         with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as cluster, \
                 Client(cluster, set_as_default=False) as client:
             assert dashboard_link(client) is None
+
+
+def test_a_dask_scheduler_without_workers_is_named_within_the_deadline(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    from clitools import wait_for
+
+    scheduler_file = tmp_path / "scheduler.json"
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--scheduler-file",
+                                  str(scheduler_file), "--host", "127.0.0.1", "--port", "0", "--dashboard-address",
+                                  ":0"], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: scheduler_file.exists() and "address" in scheduler_file.read_text(), timeout=60)
+        address = json.loads(scheduler_file.read_text())["address"]
+        work = tmp_path / "work"
+        work.mkdir()
+        result = run_rollsim(*SWEEP, "--out", "out", "--scheduler", address, "--connect-timeout", "2", cwd=work)
+        assert_one_error(result, 1, f"--scheduler {address}: no worker joined it within 2 s",
+                         f"dask worker {address}")
+        assert list(work.iterdir()) == []
+    finally:
+        scheduler.terminate()
+        scheduler.wait(timeout=30)

@@ -167,11 +167,20 @@ class DaskEngine:
         probe_scheduler(self.address, self.timeout_s)
         url = self.address.url
         try:
-            return within(lambda: Client(url, timeout=f"{self.timeout_s}s", set_as_default=False), self.timeout_s,
-                          f"--scheduler {url}: no Dask handshake within {self.timeout_s:g} s (--connect-timeout)")
+            client = within(lambda: Client(url, timeout=f"{self.timeout_s}s", set_as_default=False), self.timeout_s,
+                            f"--scheduler {url}: no Dask handshake within {self.timeout_s:g} s (--connect-timeout)")
         except (OSError, TimeoutError, ValueError) as exc:
             reason = " ".join(str(exc).split()) or type(exc).__name__
             raise SystemFailure(f"--scheduler {url}: Dask could not connect ({reason[:160]})") from None
+        # A scheduler without workers would hold every cell for ever.
+        try:
+            client.wait_for_workers(1, timeout=self.timeout_s)
+        except Exception:  # Dask's TimeoutError, or the scheduler gone meanwhile
+            self.client = client
+            self.close()
+            raise SystemFailure(f"--scheduler {url}: no worker joined it within {self.timeout_s:g} s "
+                                f"(--connect-timeout); start some with `dask worker {url}`") from None
+        return client
 
     def close(self, stopping: bool = False) -> None:
         """Close what :meth:`start` made, within :data:`CLOSE_TIMEOUT_S` each, Dask's teardown noise kept quiet.
