@@ -112,18 +112,18 @@ class _Arguments:
         """``value`` as a seed: an int in [0, 2**63)."""
         return self.integer(name, value, 0, SEED_LIMIT - 1, optional)
 
-    def positive(self, name: str, value, optional: bool = False) -> Optional[float]:
-        """``value`` as a finite float > 0; NaN, inf and bools refused."""
+    def positive(self, name: str, value, optional: bool = False, at_most: float = math.inf) -> Optional[float]:
+        """``value`` as a finite float > 0 (and <= ``at_most``); NaN, inf and bools refused."""
         if value is None and optional:
             return None
-        expected = "a finite number > 0"
+        expected = "a finite number > 0" + (f" and at most {at_most:g}" if math.isfinite(at_most) else "")
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
             raise self.refuse(name, expected, value)
         try:
             number = float(value)
         except OverflowError:  # an int beyond a float's range
             number = math.inf
-        if not (math.isfinite(number) and number > 0):
+        if not (math.isfinite(number) and 0 < number <= at_most):
             raise self.refuse(name, expected, value, ApiValueError)
         return number
 
@@ -964,6 +964,7 @@ def sweep(scene: Union[str, Path, "Scene"], grid: Optional[Mapping[str, Any]] = 
     rollsim.errors.ApiValueError: rollsim.sweep: stage: expected one of 'analytic', 'simulate', 'run', 'envelope', got 'fast'
     """
     from rollsim.sweeps import sweep as run
+    from rollsim.sweeps.scheduler import MAX_CONNECT_TIMEOUT_S
     from rollsim.sweeps.spec import STAGES
 
     args = _Arguments("sweep")
@@ -972,7 +973,8 @@ def sweep(scene: Union[str, Path, "Scene"], grid: Optional[Mapping[str, Any]] = 
                "out": None if out is None else args.path("out", out),
                "workers": args.integer("workers", workers, 1, MAX_SWEEP_WORKERS, optional=True),
                "scheduler": None if scheduler is None else args.instance("scheduler", scheduler, str, "an address (str)"),
-               "connect_timeout_s": args.positive("connect_timeout_s", connect_timeout_s, optional=True),
+               "connect_timeout_s": args.positive("connect_timeout_s", connect_timeout_s, optional=True,
+                                                  at_most=MAX_CONNECT_TIMEOUT_S),
                "resume": args.flag("resume", resume), "force": args.flag("force", force),
                **_sweep_options(args, options)}
     # rollsim.sweeps.sweep is annotated as taking a Scene; it takes a name or file too.

@@ -149,6 +149,8 @@ CASES = [
     ("sweep", "stage", lambda w: rs.sweep(SCENE, grid={"link.distance_cm": [5]}, stage="fast"), V),
     ("sweep", "overrides[0]", lambda w: rs.sweep(SCENE, grid={"link.distance_cm": [5]}, overrides=[1]), T),
     ("sweep", "runs", lambda w: rs.sweep(SCENE, grid={"link.distance_cm": [5]}, runs=0), V),
+    ("sweep", "connect_timeout_s", lambda w: rs.sweep(SCENE, grid={"link.distance_cm": [5]}, connect_timeout_s=7200),
+     V),
     ("sweep", "keep_frames", lambda w: rs.sweep(SCENE, grid={"link.distance_cm": [5]}, keep_frames="yes"), T),
     ("sweep", "channel", lambda w: rs.sweep(SCENE, grid={"link.distance_cm": [5]}, channel="fast"), V),
     ("sweep", "bogus", lambda w: rs.sweep(SCENE, grid={"link.distance_cm": [5]}, bogus=1), T),

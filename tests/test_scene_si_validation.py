@@ -224,3 +224,10 @@ def test_an_exact_sum_over_its_work_budget_is_one_line_naming_the_cause(capsys, 
     err = capsys.readouterr().err
     assert code == 2 and "Traceback" not in err
     assert err.count("\n") == 1 and fragment in err, err
+
+
+def test_a_probability_named_like_a_unit_is_a_plain_number(capsys):
+    # p_e ends like electrons ("_e") but is the paper's PHY-SDU error probability.
+    assert main(["describe", "paper-default", "--set", "channel.p_e=1e-320"]) == 2
+    err = capsys.readouterr().err
+    assert "channel.p_e = 1e-320: too small; must be 0 or at least 2.23e-308 in magnitude" in err, err

@@ -20,7 +20,7 @@ import pytest
 
 from rollsim.errors import RollsimError, SystemFailure
 from rollsim.sweeps.scheduler import connect_timeout_s, parse_scheduler_address, probe_scheduler
-from clitools import assert_one_error, run_rollsim, start_rollsim
+from clitools import assert_one_error, run_rollsim, start_rollsim, wait_for
 
 SWEEP = ["sweep", "paper-default", "--grid", "link.distance_cm=5,10", "--quiet"]
 
@@ -61,10 +61,18 @@ def _socket_server(on_accept):
     return listener, accepted, stop
 
 
+class _Address(str):
+    """A server's address, with the connections it has accepted."""
+
+    accepted: list
+
+
 @pytest.fixture
 def silent_server():
     listener, accepted, stop = _socket_server(lambda connection: None)
-    yield f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    address = _Address(f"tcp://127.0.0.1:{listener.getsockname()[1]}")
+    address.accepted = accepted
+    yield address
     stop.set()
     for connection in accepted:
         connection.close()
@@ -107,7 +115,10 @@ def test_an_address_that_cannot_be_a_scheduler_is_refused_at_once(tmp_path, addr
 def test_a_signal_stops_the_wait_for_a_silent_scheduler(tmp_path, silent_server, sig):
     process = start_rollsim(*SWEEP, "--out", "out", "--scheduler", silent_server, "--connect-timeout", "120",
                             cwd=tmp_path)
-    time.sleep(3)  # start-up done, waiting on the silent peer
+    # Connected (the command's signal handlers are set before it connects):
+    # now waiting on the silent peer, however long start-up took.
+    wait_for(lambda: silent_server.accepted, timeout=60)
+    time.sleep(0.5)
     assert process.poll() is None
     process.send_signal(sig)
     start = time.perf_counter()
@@ -226,8 +237,6 @@ def test_a_dask_scheduler_without_workers_is_named_within_the_deadline(tmp_path)
     import subprocess
     import sys
 
-    from clitools import wait_for
-
     scheduler_file = tmp_path / "scheduler.json"
     scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--scheduler-file",
                                   str(scheduler_file), "--host", "127.0.0.1", "--port", "0", "--dashboard-address",
@@ -244,3 +253,41 @@ def test_a_dask_scheduler_without_workers_is_named_within_the_deadline(tmp_path)
     finally:
         scheduler.terminate()
         scheduler.wait(timeout=30)
+
+
+def test_a_sweep_whose_workers_all_leave_stops_within_the_deadline(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    def dask(*args):
+        return subprocess.Popen([sys.executable, "-m", *args], cwd=tmp_path, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+
+    scheduler_file = tmp_path / "scheduler.json"
+    scheduler = dask("distributed.cli.dask_scheduler", "--scheduler-file", str(scheduler_file), "--host", "127.0.0.1",
+                     "--port", "0", "--dashboard-address", ":0")
+    worker = None
+    try:
+        wait_for(lambda: scheduler_file.exists() and "address" in scheduler_file.read_text(), timeout=60)
+        address = json.loads(scheduler_file.read_text())["address"]
+        worker = dask("distributed.cli.dask_worker", address, "--nthreads", "1", "--nworkers", "1", "--no-nanny")
+        work = tmp_path / "work"
+        work.mkdir()
+        process = start_rollsim("sweep", "paper-default", "--grid", "link.distance_cm=5:30:5", "--stage", "run",
+                                "--frames", "30", "--quiet", "--out", "out", "--scheduler", address,
+                                "--connect-timeout", "3", cwd=work)
+        wait_for(lambda: (work / "out" / "sweep.yaml").exists(), timeout=90)  # connected, cells submitted
+        time.sleep(1)
+        worker.kill()
+        worker.wait()
+        start = time.perf_counter()
+        _, err = process.communicate(timeout=60)
+        assert time.perf_counter() - start < 3 + 15  # the deadline, the poll and a loaded machine's slack
+        assert_one_error(err, 1, "the cluster has had no worker for 3 s (--connect-timeout): its workers left after")
+        assert process.returncode == 1
+    finally:
+        for part in (worker, scheduler):
+            if part is not None and part.poll() is None:
+                part.terminate()
+                part.wait(timeout=30)

@@ -56,6 +56,9 @@ SI_UNITS: tuple[tuple[str, str, float, str], ...] = (
     ("_s", "s", 1.0, "s"),
     ("_m", "m", 1.0, "m"),
 )
+# Names that end like a unit but are plain numbers: the paper's p_e is a
+# probability, not electrons.
+PLAIN_NUMBERS = frozenset({"p_e"})
 # The smallest SI magnitude of a quantity that must be positive. Far below
 # any scale a camera link meets (a femtosecond, a femtometre, a gain of
 # 1e-15), and far enough above the float underflow (1e-308 in float64,
@@ -86,6 +89,8 @@ def si_unit(field_name: str) -> tuple[str, float, str]:
     si_unit : str
         The SI unit (``"s"``), ``""`` for a plain number.
     """
+    if field_name in PLAIN_NUMBERS:
+        return "", 1.0, ""
     for suffix, unit, factor, si_unit_name in SI_UNITS:
         if field_name.endswith(suffix):
             return unit, factor, si_unit_name

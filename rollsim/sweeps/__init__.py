@@ -88,7 +88,10 @@ def run_sweep(
         Address of a running Dask scheduler to use instead.
     connect_timeout_s : float, optional
         Deadline of the connection to ``scheduler``, in seconds (default
-        10, or ``$ROLLSIM_CONNECT_TIMEOUT``).
+        10, or ``$ROLLSIM_CONNECT_TIMEOUT``). A peer that greets as Dask
+        does and then falls silent is given up at the deadline, but Dask's
+        client offers no way to cancel its handshake: its thread and socket
+        stay until the process ends.
     client : dask.distributed.Client, optional
         A client to use instead of either.
     resume : bool
@@ -153,13 +156,16 @@ def run_sweep(
 
 
 def _check_kept_frames_disk(spec: SweepSpec, resolved, out_dir: Path) -> None:
-    """Refuse ``--keep-frames`` whose frames would not fit the disk budget (each cell's as the base scene's)."""
-    from rollsim.render.writer import check_render_disk
+    """Refuse ``--keep-frames`` whose frames, every cell's scene's, would not fit the disk budget."""
+    from rollsim.budget import check_disk
+    from rollsim.render.writer import frame_disk_bytes
     from rollsim.scene import scene_from_dict
 
-    scene = scene_from_dict(resolved.base, spec.scene, spec.overrides)
-    cells = len(resolved.cells)
-    check_render_disk(scene, cells * spec.frames, out_dir, f"--keep-frames: {cells} cells x {spec.frames} frames = ")
+    # Built again here (validation keeps no scene): milliseconds a cell,
+    # against the seconds a cell of the run stage renders for.
+    per_frame = [frame_disk_bytes(scene_from_dict(resolved.base, spec.scene, spec.overrides, resolved.cell_values(cell)))
+                 for cell in resolved.cells]
+    check_disk(f"--keep-frames: {len(per_frame)} cells x {spec.frames} frames", sum(per_frame) * spec.frames, out_dir)
 
 
 def _compute(client, spec: SweepSpec, resolved, todo: list, directory, progress, on_start) -> None:

@@ -229,6 +229,7 @@ class BackgroundStart:
         self.engine = engine
         self._outcome: dict = {}
         self._done = threading.Event()
+        self._abandoned = threading.Event()
         self._thread = threading.Thread(target=self._run, name="rollsim-cluster-start", daemon=True)
         self._thread.start()
 
@@ -239,6 +240,8 @@ class BackgroundStart:
             self._outcome["error"] = exc
         finally:
             self._done.set()
+        if self._abandoned.is_set():  # nobody waits for it any more: close what came up late
+            self.engine.close(stopping=True)
 
     def result(self):
         """The client, once started (waits; a signal interrupts the wait)."""
@@ -251,9 +254,10 @@ class BackgroundStart:
         """Stop waiting: close what has started, giving a local cluster under way a moment to finish starting.
 
         A connection to a user's scheduler is not waited for: until it
-        is made there is nothing to close, and the thread dies with the
-        process.
+        is made there is nothing to close. A start still under way closes
+        what it made itself when it ends.
         """
+        self._abandoned.set()
         if self._done.wait(CLOSE_TIMEOUT_S if self.engine.address is None else 0.0):
             self.engine.close(stopping=True)
 
@@ -315,25 +319,67 @@ def batch_size(stage: str, cells: int, workers: int) -> int:
 
 def run_tasks(client, function: Callable, batches: list, *args) -> Generator[tuple[list, object], None, None]:
     """Submit ``function(batch, *args)`` for every batch now; a generator of
-    ``(batch, result or exception)`` as they finish."""
+    ``(batch, result or exception)`` as they finish.
+
+    Raises
+    ------
+    SystemFailure
+        (from the generator) The cluster has had no worker for the
+        connection deadline: its tasks would wait for ever.
+    """
+    from rollsim.sweeps.scheduler import connect_timeout_s
+
     futures = {client.submit(function, batch, *args, pure=False): batch for batch in batches}
-    return _finished(client, futures)
+    return _finished(client, futures, connect_timeout_s())
 
 
-def _finished(client, futures: dict) -> Generator[tuple[list, object], None, None]:
-    from distributed import as_completed
+# How often a wait for tasks looks whether the cluster still has workers, s.
+_POLL_S = 1.0
 
+
+def _finished(client, futures: dict, workerless_s: float) -> Generator[tuple[list, object], None, None]:
+    from distributed import wait
+
+    pending = list(futures)
+    since: Optional[float] = None  # monotonic time the cluster was first seen without workers
     try:
-        for future in as_completed(futures, loop=client.loop):
-            batch = futures[future]
+        while pending:
             try:
-                yield batch, future.result()
-            except Exception as exc:  # the worker died, or lost the task
-                yield batch, exc
+                with client.as_current():  # wait() asks for the current client; rollsim's is not the default
+                    done, not_done = wait(pending, timeout=_POLL_S, return_when="FIRST_COMPLETED")
+            except TimeoutError:  # nothing finished meanwhile: are there workers to finish anything?
+                since = _check_workers(client, since, workerless_s, len(futures) - len(pending), len(futures))
+                continue
+            since = None
+            pending = list(not_done)
+            for future in done:
+                try:
+                    yield futures[future], future.result()
+                except Exception as exc:  # the worker died, or lost the task
+                    yield futures[future], exc
     finally:
         # Nothing is left to cancel once the client has closed.
         with contextlib.suppress(Exception):
             client.cancel(list(futures))
+
+
+def _check_workers(client, since: Optional[float], workerless_s: float, finished: int, total: int) -> Optional[float]:
+    """When the cluster was first seen without workers (None while it has some); a
+    :class:`SystemFailure` once that has lasted ``workerless_s`` seconds."""
+    import time
+
+    workers = -1
+    with contextlib.suppress(Exception):  # the scheduler gone too: Dask's own error comes with the tasks
+        workers = len(client.scheduler_info().get("workers", {}))
+    if workers != 0:
+        return None
+    now = time.monotonic()
+    if since is None:
+        return now
+    if now - since >= workerless_s:
+        raise SystemFailure(f"the cluster has had no worker for {workerless_s:g} s (--connect-timeout): its workers "
+                            f"left after {finished} of {total} tasks")
+    return since
 
 
 def worker_count(client) -> int:
