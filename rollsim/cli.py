@@ -346,6 +346,8 @@ def _png_paths(items: Sequence[str]) -> list[Path]:
     paths: list[Path] = []
     for item in items:
         path = Path(item)
+        if not os.path.lexists(path):  # an unexpanded glob (my_frames/*.png) is named, not counted
+            raise RollsimError(f"{clip(item, 120)}: no such file or directory")
         paths.extend(frame_files(path) if path.is_dir() else [path])
     return paths
 

@@ -141,3 +141,13 @@ def test_a_scene_name_no_file_can_have_is_bad_input(tmp_path, monkeypatch, capsy
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].endswith("...: not a usable scene file name (File name too long)")
     assert len(err[0]) < 200
+
+
+@pytest.mark.parametrize("command", [["fit-camera", "my_frames/*.png", "--clock-hz", "5000", "--out", "my_camera"],
+                                     ["estimate-row-time", "my_frames/*.png", "--clock-hz", "5000"]])
+def test_frames_that_do_not_exist_are_named(tmp_path, monkeypatch, capsys, command):
+    # A glob the shell left unexpanded: named, not counted as one frame.
+    monkeypatch.chdir(tmp_path)
+    assert main(command) == 2
+    assert capsys.readouterr().err.splitlines() == ["rollsim: error: my_frames/*.png: no such file or directory"]
+    assert list(tmp_path.iterdir()) == []
