@@ -128,8 +128,9 @@ class DaskEngine:
         Raises
         ------
         SystemFailure
-            The scheduler does not greet as Dask does within the deadline
-            (exit 1, one line naming the address and what answered).
+            The scheduler does not greet as Dask does, or has no worker,
+            within the deadline (exit 1, one line naming the address and
+            what answered).
         """
         if self.address is not None:
             self.client = self._connect()
