@@ -233,6 +233,33 @@ def split_key_value(item: str, option: str, expected: str) -> tuple[str, str]:
     return key, text
 
 
+def refuse_repeated_keys(given: Iterable[tuple[str, str]]) -> None:
+    """Refuse a scene key given twice on the command line, which would be half dropped.
+
+    Parameters
+    ----------
+    given : iterable of (option, "KEY=VALUE")
+        The items of ``--set``, ``--grid`` and ``--zip`` in order. A
+        malformed item is passed over: the command's own reading names the
+        form it expects.
+
+    Raises
+    ------
+    SceneError
+        ``OPTION KEY: given twice with OPTION`` (or ``given with A and B``).
+    """
+    seen: dict[str, str] = {}
+    for option, item in given:
+        try:
+            key = split_key_value(item, option, "KEY=VALUE")[0]
+        except SceneError:
+            continue
+        if key in seen:
+            twice = f"given twice with {option}" if seen[key] == option else f"given with {seen[key]} and {option}"
+            raise SceneError(f"{option} {clip(key, 60)}: {twice}; give it once")
+        seen[key] = option
+
+
 def parse_overrides(overrides: Iterable[str], values: Optional[Mapping] = None) -> dict:
     """Turn ``["camera.exposure_us=50", ...]`` into a nested dict.
 

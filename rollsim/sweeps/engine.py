@@ -218,38 +218,57 @@ def _kill_workers(cluster) -> None:
                 os.kill(pid, signal.SIGKILL)
 
 
-class BackgroundStart:
-    """:meth:`DaskEngine.start` on a daemon thread, waited for with signals working.
+class _DaemonCall:
+    """``function()`` on a daemon thread, its result or exception waited for with signals working.
 
     A daemon thread, not an executor's: Python joins an executor's threads
-    at exit, so a start that never returns would hold the process after the
+    at exit, so a call that never returns would hold the process after the
     command had finished.
     """
 
-    def __init__(self, engine: DaskEngine):
-        self.engine = engine
+    def __init__(self, function: Callable, name: str):
         self._outcome: dict = {}
         self._done = threading.Event()
-        self._abandoned = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="rollsim-cluster-start", daemon=True)
-        self._thread.start()
+        threading.Thread(target=self._run, args=(function,), name=name, daemon=True).start()
 
-    def _run(self) -> None:
+    def _run(self, function: Callable) -> None:
         try:
-            self._outcome["client"] = self.engine.start()
+            self._outcome["value"] = function()
         except BaseException as exc:  # handed to the waiting thread
             self._outcome["error"] = exc
         finally:
             self._done.set()
-        if self._abandoned.is_set():  # nobody waits for it any more: close what came up late
-            self.engine.close(stopping=True)
+
+    def wait(self, timeout_s: Optional[float] = None) -> bool:
+        """Whether the call has ended, within ``timeout_s`` seconds (None: for as long as it takes)."""
+        return self._done.wait(timeout_s)
 
     def result(self):
-        """The client, once started (waits; a signal interrupts the wait)."""
+        """The call's value, or its exception raised here (waits for the end)."""
         self._done.wait()
         if "error" in self._outcome:
             raise self._outcome["error"]
-        return self._outcome["client"]
+        return self._outcome.get("value")
+
+
+class BackgroundStart:
+    """:meth:`DaskEngine.start` on a daemon thread (:class:`_DaemonCall`), waited for with signals working."""
+
+    def __init__(self, engine: DaskEngine):
+        self.engine = engine
+        self._abandoned = threading.Event()
+        self._call = _DaemonCall(self._start, "rollsim-cluster-start")
+
+    def _start(self):
+        try:
+            return self.engine.start()
+        finally:
+            if self._abandoned.is_set():  # nobody waits for it any more: close what came up late
+                self.engine.close(stopping=True)
+
+    def result(self):
+        """The client, once started (waits; a signal interrupts the wait)."""
+        return self._call.result()
 
     def abandon(self) -> None:
         """Stop waiting: close what has started, giving a local cluster under way a moment to finish starting.
@@ -259,7 +278,7 @@ class BackgroundStart:
         what it made itself when it ends.
         """
         self._abandoned.set()
-        if self._done.wait(CLOSE_TIMEOUT_S if self.engine.address is None else 0.0):
+        if self._call.wait(CLOSE_TIMEOUT_S if self.engine.address is None else 0.0):
             self.engine.close(stopping=True)
 
 
@@ -271,23 +290,10 @@ def within(function: Callable, timeout_s: float, message: str):
     SystemFailure
         ``message`` when the time is up (the thread is left to finish or not).
     """
-    outcome: dict = {}
-    done = threading.Event()
-
-    def run() -> None:
-        try:
-            outcome["value"] = function()
-        except BaseException as exc:  # handed to the waiting thread
-            outcome["error"] = exc
-        finally:
-            done.set()
-
-    threading.Thread(target=run, name="rollsim-deadline", daemon=True).start()
-    if not done.wait(timeout_s):
+    call = _DaemonCall(function, "rollsim-deadline")
+    if not call.wait(timeout_s):
         raise SystemFailure(message)
-    if "error" in outcome:
-        raise outcome["error"]
-    return outcome.get("value")
+    return call.result()
 
 
 def dashboard_link(client, timeout_s: float = 2.0) -> Optional[str]:
@@ -369,10 +375,7 @@ def _check_workers(client, since: Optional[float], workerless_s: float, finished
     :class:`SystemFailure` once that has lasted ``workerless_s`` seconds."""
     import time
 
-    workers = -1
-    with contextlib.suppress(Exception):  # the scheduler gone too: Dask's own error comes with the tasks
-        workers = len(client.scheduler_info().get("workers", {}))
-    if workers != 0:
+    if _workers_now(client) != 0:  # some, or unknown (the scheduler gone too: Dask's error comes with the tasks)
         return None
     now = time.monotonic()
     if since is None:
@@ -383,9 +386,14 @@ def _check_workers(client, since: Optional[float], workerless_s: float, finished
     return since
 
 
-def worker_count(client) -> int:
-    """Workers the client's cluster has now."""
+def _workers_now(client) -> Optional[int]:
+    """Workers the client's scheduler lists now; None when it cannot be asked."""
     with contextlib.suppress(Exception):
-        return max(1, len(client.scheduler_info().get("workers", {})))
-    return 1
+        return len(client.scheduler_info().get("workers", {}))
+    return None
+
+
+def worker_count(client) -> int:
+    """Workers the client's cluster has now (at least 1, for sizing batches)."""
+    return max(1, _workers_now(client) or 1)
 

@@ -127,21 +127,11 @@ def _key_values(items, option: str) -> tuple:
     """``["KEY=VALUES", ...]`` (or a ``{key: values}`` mapping) as ``((key, values), ...)``."""
     if isinstance(items, dict):
         return tuple((str(key), values) for key, values in items.items())
-    from rollsim.scene.loader import split_key_value
+    from rollsim.scene.loader import refuse_repeated_keys, split_key_value
 
     pairs = tuple(split_key_value(item, option, "KEY=VALUES, e.g. link.distance_cm=5:40:5") for item in items)
-    _refuse_repeated_keys([key for key, _ in pairs], option)
+    refuse_repeated_keys((option, item) for item in items)
     return pairs
-
-
-def _refuse_repeated_keys(keys: list, option: str) -> None:
-    """A key given twice would be half dropped: refuse it, naming the key."""
-    seen: set = set()
-    for key in keys:
-        if key in seen:
-            raise RollsimError(f"{option} {clip(key, 60)}: given twice; give all its values in one {option} "
-                               f"(e.g. {option} {clip(key, 60)}=5,10,20)")
-        seen.add(key)
 
 
 def read_sweep_file(path: Path) -> dict:
