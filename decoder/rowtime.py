@@ -51,6 +51,27 @@ MAX_RESIDUAL_PERIODS = 0.1
 RUN_TOLERANCE_PERIODS = 0.15
 MIN_RUN_TOLERANCE_ROWS = 0.75
 MIN_TYPICAL_RUNS = 0.75
+# Folded at its period (every row's level averaged with the rows whole
+# periods away), a square wave keeps one ON and one OFF part: the fold's
+# levels, cut at FOLD_HYSTERESIS and 1 − FOLD_HYSTERESIS of its range,
+# change twice. A code that repeats shows several pulses there.
+FOLD_HYSTERESIS = 0.3
+# A square wave's row is also close to the rows a period before and after
+# it (its duty may drift across the LED as saturation grows, but slowly):
+# the RMS of a row less the mean of those two, its noise removed, is at
+# most MAX_PERIOD_MISMATCH of the profile's RMS. Measured: 0.00–0.20 on
+# rendered and synthetic square waves (saturated cores included), 0.72–0.95
+# on the pulse-length codes whose runs fit a period (tests/decoder).
+MAX_PERIOD_MISMATCH = 0.4
+# A square wave has one ON and one OFF run a period: its profile has one
+# prominent peak and one prominent valley a period (prominence at least
+# PEAK_PROMINENCE of the profile's 5–95 % range and PEAK_NOISE_SIGMAS of
+# its noise). A code has as many as it has pulses, wherever a period is
+# guessed. Up to MAX_PEAKS_PER_PERIOD a period are allowed (noise, the
+# profile's ends).
+PEAK_PROMINENCE = 0.25
+PEAK_NOISE_SIGMAS = 4.0
+MAX_PEAKS_PER_PERIOD = 1.25
 
 
 class RowTimeError(ValueError):
@@ -124,6 +145,10 @@ def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, flo
         return None
     if not runs_fit_a_square_wave(values, runs.bounds, period):
         return None
+    if not folds_to_a_square_wave(profile.values, profile.noise, period):
+        return None
+    if not one_peak_per_period(profile.values, profile.noise, period):
+        return None
     groups = int(keep[rising].any()) + int(keep[~rising].any())
     dof = max(1, residual.size - 1 - groups)
     stderr = float(np.sqrt(np.sum(residual**2) / dof / sxx))
@@ -160,6 +185,87 @@ def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: 
         return False
     tolerance = max(RUN_TOLERANCE_PERIODS * period_rows, MIN_RUN_TOLERANCE_ROWS)
     return bool(np.mean(np.abs(sums - period_rows) <= tolerance) >= MIN_TYPICAL_RUNS)
+
+
+def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: float) -> bool:
+    """Whether a row profile repeats at ``period_rows`` as one square wave.
+
+    The profile less its mean over one period (the LED's slow envelope) is
+    (1) folded: averaged in phase bins about a row wide, and the fold must
+    cross its middle exactly twice (hysteresis :data:`FOLD_HYSTERESIS`);
+    (2) compared with itself a period away: each row less the mean of the
+    rows a whole number of periods before and after it (the nearest whole
+    row), whose RMS, its noise removed, is at most
+    :data:`MAX_PERIOD_MISMATCH` of the profile's.
+
+    Parameters
+    ----------
+    values, noise : ndarray, shape (n,)
+        Row means and their noise (DN), as :class:`decoder.profile.RowProfile`.
+    period_rows : float
+        The period, rows.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    n = values.size
+    if not (period_rows > 0 and n >= 3 * period_rows):
+        return False
+    detrended = values - uniform_filter1d(values, max(2, int(round(period_rows))), mode="nearest")
+    bins = max(3, int(np.ceil(period_rows)))
+    index = np.minimum((np.mod(np.arange(n), period_rows) / period_rows * bins).astype(np.intp), bins - 1)
+    counts = np.bincount(index, minlength=bins)
+    if np.any(counts == 0):
+        return False
+    fold = np.bincount(index, detrended, minlength=bins) / counts
+    low, high = float(fold.min()), float(fold.max())
+    if not high > low:
+        return False
+    state = np.zeros(bins, dtype=np.int8)
+    state[fold <= low + FOLD_HYSTERESIS * (high - low)] = -1
+    state[fold >= high - FOLD_HYSTERESIS * (high - low)] = 1
+    decided = state[state != 0]
+    if int(np.count_nonzero(decided != np.roll(decided, 1))) != 2:
+        return False
+    # Whole rows a whole number of periods away (the number, up to 4, that
+    # brings the shift nearest a whole row): interpolating between rows
+    # would blur a stripe narrower than a row, and call the blur a mismatch.
+    shift = min((k * period_rows for k in range(1, 5) if k * period_rows < n / 3),
+                key=lambda s: abs(s - round(s)), default=period_rows)
+    lag = int(round(shift))
+    if lag < 1 or n <= 2 * lag:
+        return False
+    centre = detrended[lag:n - lag]
+    mismatch = centre - 0.5 * (detrended[:n - 2 * lag] + detrended[2 * lag:])
+    # The mismatch holds the row's noise and half of each neighbour's: 1.5 σ².
+    noise_var = 1.5 * float(np.mean(np.asarray(noise, dtype=np.float64) ** 2))
+    mismatch_var = max(0.0, float(np.mean(mismatch**2)) - noise_var)
+    return mismatch_var <= MAX_PERIOD_MISMATCH**2 * float(np.mean(centre**2))
+
+
+def one_peak_per_period(values: np.ndarray, noise: np.ndarray, period_rows: float) -> bool:
+    """Whether a row profile has at most one prominent peak and one prominent valley a period.
+
+    Prominent: at least :data:`PEAK_PROMINENCE` of the profile's 5–95 %
+    range (its slow envelope removed) and :data:`PEAK_NOISE_SIGMAS` of its
+    noise. At most :data:`MAX_PEAKS_PER_PERIOD` of each a period, and one
+    more for the profile's ends.
+
+    Parameters
+    ----------
+    values, noise : ndarray, shape (n,)
+        Row means and their noise (DN).
+    period_rows : float
+    """
+    from scipy.signal import find_peaks
+
+    values = np.asarray(values, dtype=np.float64)
+    detrended = values - uniform_filter1d(values, max(2, int(round(period_rows))), mode="nearest")
+    low, high = np.percentile(detrended, [5, 95])
+    sigma = float(np.median(np.asarray(noise, dtype=np.float64))) if np.size(noise) else 0.0
+    prominence = max(PEAK_PROMINENCE * float(high - low), PEAK_NOISE_SIGMAS * sigma, 1e-9)
+    allowed = MAX_PEAKS_PER_PERIOD * values.size / period_rows + 1
+    peaks, _ = find_peaks(detrended, prominence=prominence)
+    valleys, _ = find_peaks(-detrended, prominence=prominence)
+    return peaks.size <= allowed and valleys.size <= allowed
 
 
 def frame_period_rows(image) -> tuple[float, float, int] | None:
