@@ -402,7 +402,8 @@ def cmd_fit_camera(args) -> int:
         frames.append(image if image.ndim == 2 else image.mean(axis=2))
     base = load_scene(args.scene, args.overrides)
     try:
-        fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations)
+        fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
+                         progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True))
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
     comparison = compare(frames, fit)
@@ -413,6 +414,9 @@ def cmd_fit_camera(args) -> int:
           f"ISO {est['iso'].value:.0f}, read noise {est['read_noise_e'].value:.2f} e-, "
           f"LED at ({est['led_centre_x_px'].value:.1f}, {est['led_centre_y_px'].value:.1f}) px, "
           f"diameter {est['led_diameter_px'].value:.1f} px")
+    missing = [name for name, e in est.items() if e.source == "not identified"]
+    if missing:
+        print(f"not identified from these frames (the base scene's values, reasons in report.md): {', '.join(missing)}")
     print(f"row-profile correlation with the fit: mean {np.mean(comparison.correlations):.4f}; "
           f"wrote {out / 'camera.yaml'}, fit.json, report.md, profiles.png")
     return EXIT_OK

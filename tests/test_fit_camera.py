@@ -8,8 +8,9 @@ import pytest
 import yaml
 
 from rollsim.cli import main
-from rollsim.fit.camera import aligned_correlation, noise_gain, photon_transfer
+from rollsim.fit.check import aligned_correlation
 from rollsim.fit.measure import find_led_disk, temporal_noise
+from rollsim.fit.noise import noise_gain, photon_transfer
 from rollsim.fit.stripes import square_wave_box, stripe_profile
 from rollsim.optics.footprint import footprint
 from rollsim.scene import load_scene

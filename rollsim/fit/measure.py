@@ -80,6 +80,96 @@ def find_led_disk(brightest: np.ndarray, background: float) -> LedDisk:
     return LedDisk(cx, float(cy), float(np.sqrt(max(radius2, 0.25))), int(keep.sum()))
 
 
+# The LED fills the frame when this much of the frame's border is lit (a
+# disk inside the frame lights none of it).
+FILLS_BORDER_FRACTION = 0.5
+# The row profiles keep the rows this far from the background to the LED's peak.
+CORE_FRACTION = 0.6
+# A background block smaller than this (pixels) gives no background statistic.
+MIN_BACKGROUND_PIXELS = 256
+# Frames at most this many columns wide are used whole for the row profile.
+NARROW_COLUMNS = 64
+
+
+@dataclass(frozen=True)
+class LedRegion:
+    """Where the LED is, and what of the frame is background.
+
+    Attributes
+    ----------
+    disk : LedDisk or None
+        The LED's disk; None when the LED fills the frame (no edge to place it).
+    band : (slice, slice)
+        Rows and columns of the row profiles (the LED's central band).
+    block : (slice, slice) or None
+        A background rectangle clear of the LED's halo; None when there is none.
+    """
+
+    disk: LedDisk | None
+    band: tuple[slice, slice]
+    block: tuple[slice, slice] | None
+
+
+def lit_border_fraction(brightest: np.ndarray) -> float:
+    """Fraction of the frame's border pixels above half-way between the frame's 1st and 99th percentiles."""
+    low, high = np.percentile(brightest, [1, 99])
+    if not high > low:
+        return 0.0
+    lit = brightest > 0.5 * (low + high)
+    border = np.concatenate([lit[0], lit[-1], lit[1:-1, 0], lit[1:-1, -1]])
+    return float(border.mean())
+
+
+def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float) -> tuple[slice, slice] | None:
+    """The largest rectangle of whole rows or whole columns clear of the LED and its halo
+    (``margin_radii`` radii from its centre), or None when it is under
+    :data:`MIN_BACKGROUND_PIXELS`."""
+    h, w = shape
+    top = int(max(0, np.floor(disk.centre_y_px - margin_radii * disk.radius_px)))
+    bottom = int(min(h, np.ceil(disk.centre_y_px + margin_radii * disk.radius_px)))
+    left = int(max(0, np.floor(disk.centre_x_px - margin_radii * disk.radius_px)))
+    right = int(min(w, np.ceil(disk.centre_x_px + margin_radii * disk.radius_px)))
+    candidates = [((slice(0, top), slice(0, w)), top * w), ((slice(bottom, h), slice(0, w)), (h - bottom) * w),
+                  ((slice(0, h), slice(0, left)), h * left), ((slice(0, h), slice(right, w)), h * (w - right))]
+    block, area = max(candidates, key=lambda c: c[1])
+    return block if area >= MIN_BACKGROUND_PIXELS else None
+
+
+def find_led_region(brightest: np.ndarray, mean_frame: np.ndarray, halo_radii: float) -> LedRegion:
+    """The LED's disk (or that it fills the frame), its central band and a background block.
+
+    Raises
+    ------
+    ValueError
+        No LED: nothing is brighter than the rest.
+    """
+    shape = brightest.shape
+    h, w = shape
+    if lit_border_fraction(brightest) >= FILLS_BORDER_FRACTION:
+        c0, c1 = (0, w) if w <= NARROW_COLUMNS else (int(0.2 * w), int(np.ceil(0.8 * w)))
+        return LedRegion(None, (slice(0, h), slice(c0, c1)), None)
+    background = float(np.median(mean_frame))
+    disk = find_led_disk(brightest, background)
+    block = background_block(shape, disk, halo_radii)
+    rows, cols = central_band(disk, shape)
+    return LedRegion(disk, (bright_core_rows(brightest[rows, cols].mean(axis=1), rows, background), cols), block)
+
+
+def bright_core_rows(levels: np.ndarray, rows: slice, background: float) -> slice:
+    """The run of ``rows`` around its brightest row whose ``levels`` (the band's
+    brightest-frame means) reach :data:`CORE_FRACTION` of the way from the
+    background to the peak: the LED itself, not the halo that glare or blur
+    spread around it (whose stripes are not the LED's)."""
+    peak = int(np.argmax(levels))
+    lit = levels >= background + CORE_FRACTION * (float(levels[peak]) - background)
+    dark = np.flatnonzero(~lit)
+    start = int(dark[dark < peak].max()) + 1 if np.any(dark < peak) else 0
+    stop = int(dark[dark > peak].min()) if np.any(dark > peak) else levels.size
+    if stop - start < 0.25 * levels.size:  # a narrow spike: keep the band
+        return rows
+    return slice(rows.start + start, rows.start + stop)
+
+
 def disk_mask(shape: tuple[int, int], disk: LedDisk, scale: float = 1.0) -> np.ndarray:
     """Pixels within ``scale`` radii of the disk's centre."""
     yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
@@ -127,24 +217,41 @@ def temporal_noise(frames: Sequence[np.ndarray], rows: slice, cols: slice) -> Te
     return TemporalNoise(float(np.sqrt(np.mean(pixel_var))), float(np.sqrt(np.mean(row_var))), len(pixel_var))
 
 
+# Frame pairs whose same rows are compared for the temporal noise: every
+# pair up to this many (a free-running camera's stripes move between frames,
+# so a row holds one level in both frames only now and then).
+MAX_NOISE_PAIRS = 30
+
+
+def frame_pairs(n_frames: int, limit: int = MAX_NOISE_PAIRS) -> list[tuple[int, int]]:
+    """Pairs (i, j), i < j, of frame indices: neighbours first, at most ``limit``."""
+    pairs = [(i, i + gap) for gap in range(1, n_frames) for i in range(n_frames - gap)]
+    return pairs[:limit]
+
+
 def level_noise_pairs(frames: Sequence[np.ndarray], rows: slice, cols: slice) -> tuple[np.ndarray, np.ndarray]:
     """Per-row (mean level, temporal variance) in a band whose level changes from frame to frame.
 
-    For consecutive frames a and b, each pixel's deviation from its row's
-    mean in a, less the same in b, holds the temporal variance of a's level
-    plus b's. Rows are paired with the mean of their two levels; the
-    variance is half the sum (exact where the two levels agree, and rows
-    are kept only where they agree within 5 %).
+    For two frames a and b, each pixel's deviation from its row's mean in
+    a, less the same in b, holds the temporal variance of a's level plus
+    b's, and no fixed pattern (the same pixels). Rows are paired with the
+    mean of their two levels; the variance is half the sum, exact where the
+    two levels agree, and rows are kept only where they agree within 5 % (or
+    1 level). Frame pairs are :func:`frame_pairs`'s.
     """
     levels, variances = [], []
-    for a, b in zip(frames[:-1], frames[1:]):
-        ba, bb = a[rows, cols], b[rows, cols]
+    for i, j in frame_pairs(len(frames)):
+        ba, bb = frames[i][rows, cols], frames[j][rows, cols]
         ma, mb = ba.mean(axis=1), bb.mean(axis=1)
         d = (ba - ma[:, None]) - (bb - mb[:, None])
         n = d.shape[1]
-        close = np.abs(ma - mb) <= 0.05 * np.maximum(1.0, 0.5 * (ma + mb))
+        if n < 2:
+            continue
+        close = np.abs(ma - mb) <= np.maximum(1.0, 0.05 * 0.5 * (ma + mb))
         levels.append(0.5 * (ma + mb)[close])
-        variances.append((d.var(axis=1) * n / max(n - 1, 1) / 2.0)[close])
+        variances.append((d[close].var(axis=1) * n / (n - 1) / 2.0))
+    if not levels:
+        return np.zeros(0), np.zeros(0)
     return np.concatenate(levels), np.concatenate(variances)
 
 

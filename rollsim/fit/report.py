@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from rollsim.fit.camera import CameraFit, Comparison
+from rollsim.fit.check import Comparison
+from rollsim.fit.refine import CameraFit
 
 FILES = ("camera.yaml", "fit.json", "report.md", "profiles.png")
 
@@ -63,10 +64,14 @@ def profile_plot_png(comparison: Comparison, first_row: int) -> bytes:
 def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str:
     lines = ["# rollsim fit-camera", "",
              f"{len(sources)} frames; the scene is `camera.yaml`, every estimate with its uncertainty in `fit.json`.",
-             "", "## Estimates", "", "| quantity | value | ± 1σ | unit | how |", "|---|---|---|---|---|"]
+             "", "## Estimates", "",
+             "Source: `frames` (fitted to them), `base scene` (what frames of a square wave never show) or "
+             "`not identified` (what these frames do not show; the base scene's value is used).", "",
+             "| quantity | value | ± 1σ | unit | source | how, or why not |", "|---|---|---|---|---|---|"]
     for name, e in fit.estimates.items():
         unc = "" if e.uncertainty is None or not np.isfinite(e.uncertainty) else f"{e.uncertainty:.4g}"
-        lines.append(f"| {name} | {e.value:.6g} | {unc} | {e.unit} | {e.how} |")
+        why = e.how if e.reason is None else f"{e.how}; {e.reason}"
+        lines.append(f"| {name} | {e.value:.6g} | {unc} | {e.unit} | {e.source} | {why} |")
     r = np.asarray(comparison.correlations)
     lines += ["", "## Row profiles, frames against the fit", "",
               "![row profiles](profiles.png)", "",
@@ -80,9 +85,8 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
         lines.append(f"| {name} | {ours:.3f} | {theirs:.3f} | {diff} |")
     if fit.notes:
         lines += ["", "## Notes", ""] + [f"- {n}" for n in fit.notes]
-    lines += ["", "Not fitted (kept from the base scene): the lens (focal length, f-number, blur), the LED's "
-              "distance, glare, sharpening and compression; their effect on the edges and the noise is absorbed "
-              "by the fitted exposure, smoothing, tone curve and noise.", ""]
+    lines += ["", "Not fitted: glare, sharpening and compression; their effect on the edges and the noise is "
+              "absorbed by the fitted exposure, smoothing, tone curve and noise.", ""]
     return "\n".join(lines)
 
 

@@ -6,22 +6,25 @@ averaged over a box of E rows:
 
     w(r) = (S(r + φ) − S(r + φ − E)) / E,   S(t) = P·⌊t/P⌋/2 + clip(t mod P, 0, P/2),
 
-S being the square wave's integral. The level is u(r) = off + (on − off)·w(r)
-as a fraction of the ADC range, its ON level bent by a slow envelope
-(1 + c₁x + c₂x², x the distance from the LED's centre in radii: the LED's
-radial profile and vignetting). The camera maps it through the tone curve
-(a gamma, v^(1/γ)) to 8 bits, and the ISP's vertical filter smooths the
-result with a Gaussian of σ rows. :func:`fit_stripes` fits E, σ, γ, the
-levels and the envelope to the row profiles of several frames, each with its
-own phase φ, by least squares (scipy).
+S being the square wave's integral. The level is u(r) = off(r) + (on(r) − off(r))·w(r)
+as a fraction of the ADC range; the ON and OFF levels vary slowly along the
+LED (its radial profile, vignetting, glare from the ON rows around an OFF
+one): each is linear between knots a few stripe periods apart, shared by
+all frames. ON may exceed full scale (a saturated LED): the model clips as
+the ADC does. The camera maps the level through the tone curve (a gamma,
+v^(1/γ)) to 8 bits, and the ISP's vertical filter smooths the result with a
+Gaussian of σ rows. :func:`fit_stripes` fits E, σ, γ, the knots' levels and
+each frame's phase φ to the row profiles of several frames by least squares
+(scipy).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
+from scipy.optimize import OptimizeResult, least_squares
 
 from rollsim.isp import gaussian_kernel
 
@@ -77,9 +80,12 @@ class StripeFit:
     gamma : float
         γ of the tone curve v^(1/γ) (1: linear output).
     on, off : float
-        Linear ON and OFF levels at the LED's centre, fractions of the ADC range.
-    envelope : (float, float)
-        c₁, c₂ of the ON level's envelope.
+        Linear ON and OFF levels (medians of the knots'), fractions of the
+        ADC range.
+    knot_rows : tuple of float
+        Rows of the envelope's knots.
+    on_knots, off_knots : tuple of float
+        The ON and OFF levels at the knots.
     phases_rows : tuple of float
         Each frame's φ.
     rms_residual : float
@@ -94,23 +100,43 @@ class StripeFit:
     gamma: float
     on: float
     off: float
-    envelope: tuple
+    knot_rows: tuple
+    on_knots: tuple
+    off_knots: tuple
     phases_rows: tuple
     rms_residual: float
     uncertainties: dict
 
 
+# A camera's tone curve is concave (γ ≥ 1: sRGB's is about 2.2); a little
+# below 1 is left for the estimator's noise.
+MIN_GAMMA, MAX_GAMMA = 0.8, 5.0
+# The envelope's knots are at least this many stripe periods apart, and at most MAX_KNOTS in all.
+KNOT_PERIODS = 4.0
+MAX_KNOTS = 24
+
+
+def knot_rows(rows: np.ndarray, period_rows: float) -> np.ndarray:
+    """Rows of the envelope's knots: evenly over ``rows``, :data:`KNOT_PERIODS`
+    stripe periods apart or wider, at most :data:`MAX_KNOTS`, at least 2."""
+    span = float(rows[-1] - rows[0]) if rows.size > 1 else 1.0
+    count = int(min(MAX_KNOTS, max(2, np.floor(span / (KNOT_PERIODS * period_rows)) + 1)))
+    return np.linspace(float(rows[0]), float(rows[-1]), count)
+
+
 def stripe_profile(rows: np.ndarray, period_rows: float, phase_rows: float, exposure_rows: float,
-                   smoothing_rows: float, gamma: float, on: float, off: float, envelope=(0.0, 0.0),
-                   centre_row: float = 0.0, radius_rows: float = 1.0) -> np.ndarray:
+                   smoothing_rows: float, gamma: float, on, off, knots: np.ndarray | None = None) -> np.ndarray:
     """The modelled 8-bit row profile (0 … 255, float) at ``rows`` (consecutive rows).
 
     Parameters are those of :class:`StripeFit` and :func:`square_wave_box`;
-    ``centre_row`` and ``radius_rows`` place the envelope.
+    ``on`` and ``off`` are levels (floats), or their values at ``knots``
+    (rows), interpolated linearly between them.
     """
-    x = (np.asarray(rows, dtype=np.float64) - centre_row) / radius_rows
-    top = on * (1.0 + envelope[0] * x + envelope[1] * x**2)
-    level = off + (top - off) * square_wave_box(rows, period_rows, phase_rows, exposure_rows)
+    rows = np.asarray(rows, dtype=np.float64)
+    if knots is not None:
+        on = np.interp(rows, knots, on)
+        off = np.interp(rows, knots, off)
+    level = off + (on - off) * square_wave_box(rows, period_rows, phase_rows, exposure_rows)
     out = 255.0 * np.power(np.clip(level, 0.0, 1.0), 1.0 / gamma)
     return _smoothed(out, smoothing_rows)
 
@@ -124,25 +150,111 @@ def _fundamental_phase(values: np.ndarray, rows: np.ndarray, period_rows: float)
     return float((np.arctan2(c, s) / omega) % period_rows)
 
 
-def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float, centre_row: float,
-                radius_rows: float, fit_gamma: bool = True, start: StripeFit | None = None) -> StripeFit:
+# Frames whose profiles the fit uses, at most (evenly spread over the set):
+# the shape is shared, and more frames add time, not information.
+MAX_FIT_FRAMES = 6
+# Each grid start runs this many evaluations; the best goes on to convergence.
+SCOUT_EVALUATIONS = 40
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where each parameter sits in the least-squares vector."""
+
+    fit_smoothing: bool
+    fit_gamma: bool
+    n_knots: int
+    n_frames: int
+
+    @property
+    def size(self) -> int:
+        return 1 + self.fit_smoothing + self.fit_gamma + 2 * self.n_knots + self.n_frames
+
+    def unpack(self, x: np.ndarray):
+        i = 1
+        s = x[i] if self.fit_smoothing else 0.0
+        i += self.fit_smoothing
+        g = x[i] if self.fit_gamma else 1.0
+        i += self.fit_gamma
+        nk = self.n_knots
+        return x[0], s, g, x[i:i + nk], x[i + nk:i + 2 * nk], x[i + 2 * nk:]
+
+    def pack(self, e, s, g, on, off, phases) -> np.ndarray:
+        head = [e] + ([s] if self.fit_smoothing else []) + ([g] if self.fit_gamma else [])
+        return np.array(head + list(on) + list(off) + list(phases), dtype=np.float64)
+
+    def bounds(self, period_rows: float) -> tuple[np.ndarray, np.ndarray]:
+        # ON may exceed full scale: a saturated LED, clipped by the model as by the ADC.
+        lower = self.pack(0.05, 0.0, MIN_GAMMA, [0.0] * self.n_knots, [0.0] * self.n_knots, [-np.inf] * self.n_frames)
+        upper = self.pack(4.0 * period_rows, period_rows, MAX_GAMMA, [60.0] * self.n_knots, [1.0] * self.n_knots,
+                          [np.inf] * self.n_frames)
+        return lower, upper
+
+    def sparsity(self, rows: np.ndarray, knots: np.ndarray, margin_rows: float) -> np.ndarray:
+        """Which residuals each parameter moves: a frame's phase its own rows
+        only, a knot the rows up to its neighbours and ``margin_rows`` beyond
+        (the smoothing's reach)."""
+        n_rows = rows.size
+        pattern = np.zeros((self.n_frames * n_rows, self.size), dtype=bool)
+        shared = 1 + self.fit_smoothing + self.fit_gamma
+        pattern[:, :shared] = True
+        reach = np.zeros((n_rows, self.n_knots), dtype=bool)
+        for k in range(self.n_knots):
+            lo = knots[k - 1] if k > 0 else -np.inf
+            hi = knots[k + 1] if k + 1 < self.n_knots else np.inf
+            reach[:, k] = (rows >= lo - margin_rows) & (rows <= hi + margin_rows)
+        for f in range(self.n_frames):
+            block = slice(f * n_rows, (f + 1) * n_rows)
+            pattern[block, shared:shared + self.n_knots] = reach
+            pattern[block, shared + self.n_knots:shared + 2 * self.n_knots] = reach
+            pattern[block, shared + 2 * self.n_knots + f] = True
+        return pattern
+
+
+def _bic(result, n_residuals: int) -> float:
+    """The Bayesian information criterion of a least-squares fit (Gaussian residuals)."""
+    rss = max(2.0 * float(result.cost), 1e-300)
+    return n_residuals * math.log(rss / n_residuals) + result.x.size * math.log(n_residuals)
+
+
+def _solve(layout: _Layout, starts: list, residuals, period_rows: float, sparsity) -> OptimizeResult:
+    """The best least-squares solution over ``starts``: each scouted for
+    :data:`SCOUT_EVALUATIONS` evaluations, the best run to convergence."""
+    lower, upper = layout.bounds(period_rows)
+    scouted = []
+    for x0 in starts:
+        x0 = np.clip(x0, lower + 1e-9, upper - 1e-9)
+        budget = SCOUT_EVALUATIONS if len(starts) > 1 else 400
+        scouted.append(least_squares(residuals, x0, bounds=(lower, upper), x_scale="jac", max_nfev=budget,
+                                     jac_sparsity=sparsity, tr_solver="lsmr"))
+    best = min(scouted, key=lambda r: r.cost)
+    if len(starts) > 1:
+        best = least_squares(residuals, best.x, bounds=(lower, upper), x_scale="jac", max_nfev=400,
+                             jac_sparsity=sparsity, tr_solver="lsmr")
+    return best
+
+
+def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float,
+                start: StripeFit | None = None) -> StripeFit:
     """Fit the stripe model to the row profiles of several frames.
+
+    The smoothing σ and the tone curve's γ are kept only where the frames
+    ask for them: the model without one (σ = 0, γ = 1) is chosen when its
+    Bayesian information criterion is lower, so a camera without an ISP is
+    not given one to trade against its exposure.
 
     Parameters
     ----------
     profiles : list of ndarray
         Each frame's row profile (8-bit levels, mean over the LED's central
-        columns) over ``rows``.
+        columns) over ``rows``; at most :data:`MAX_FIT_FRAMES` are used.
     rows : ndarray of int
         Consecutive row indices of the profiles.
     period_rows : float
         P, from the row-time estimate: 2 / (clock · t_row).
-    centre_row, radius_rows : float
-        The LED's centre row and radius (for the envelope).
-    fit_gamma : bool
-        Fit the tone curve's γ (else γ = 1, linear output).
     start : StripeFit, optional
-        A fit of similar frames to start from (one start instead of a grid).
+        A fit of similar frames over the same rows to start from (one start
+        instead of a grid, and its choice of σ and γ).
 
     Returns
     -------
@@ -150,49 +262,56 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     """
     rows = np.asarray(rows, dtype=np.float64)
     data = [np.asarray(p, dtype=np.float64) for p in profiles]
+    if len(data) > MAX_FIT_FRAMES:
+        data = [data[int(i)] for i in np.linspace(0, len(data) - 1, MAX_FIT_FRAMES).round()]
+    knots = knot_rows(rows, period_rows) if start is None else np.asarray(start.knot_rows)
+    nk, n = knots.size, len(data)
+    target = np.concatenate(data)
     hi = max(float(np.percentile(p, 97)) for p in data) / 255.0
     lo = min(float(np.percentile(p, 3)) for p in data) / 255.0
     phases0 = [_fundamental_phase(p, rows, period_rows) for p in data]
-    n = len(data)
 
-    def unpack(x):
-        e, s, g, on, off, c1, c2 = x[:7]
-        return e, s, g if fit_gamma else 1.0, on, off, (c1, c2), x[7:7 + n]
+    def make_residuals(layout):
+        def residuals(x):
+            e, s, g, on, off, phases = layout.unpack(x)
+            return np.concatenate([stripe_profile(rows, period_rows, ph, e, s, g, on, off, knots)
+                                   for ph in phases]) - target
+        return residuals
 
-    def residuals(x):
-        e, s, g, on, off, env, phases = unpack(x)
-        return np.concatenate([
-            stripe_profile(rows, period_rows, ph, e, s, g, on, off, env, centre_row, radius_rows) - p
-            for ph, p in zip(phases, data)])
-
-    lower = [0.05, 0.0, 0.3, 0.0, 0.0, -2.0, -2.0] + [-np.inf] * n
-    # ON may exceed full scale: a saturated LED, clipped by the model as by the ADC.
-    upper = [4.0 * period_rows, period_rows, 5.0, 50.0, 1.0, 2.0, 2.0] + [np.inf] * n
-    best = None
-    # Starts over a grid: the box and the Gaussian trade off, and the phase
-    # guess from the fundamental is off by half the box.
-    grid = [(e0 * period_rows, 0.5, g0, hi**g0, lo**g0, 0.0, 0.0)
-            for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in ((1.0, 2.2) if fit_gamma else (1.0,))]
     if start is not None:
-        grid = [(start.exposure_rows, start.smoothing_rows, start.gamma, start.on, start.off, *start.envelope)]
-    for e0, s0, g0, on0, off0, c10, c20 in grid:
-        x0 = [e0, s0, g0, on0, off0, c10, c20] + [ph + e0 / 2 for ph in phases0]
-        x0 = np.clip(x0, [a + 1e-9 for a in lower], [b - 1e-9 for b in upper])
-        result = least_squares(residuals, x0, bounds=(lower, upper), x_scale="jac", max_nfev=400)
-        if best is None or result.cost < best.cost:
-            best = result
-    if best is None:  # the grid always has a start; this keeps the type checker informed
-        raise RuntimeError("no start for the stripe fit")
-    e, s, g, on, off, env, phases = unpack(best.x)
+        layouts = [_Layout(start.smoothing_rows > 0, start.gamma != 1.0, nk, n)]
+    else:
+        layouts = [_Layout(sm, ga, nk, n) for sm in (True, False) for ga in (True, False)]
+    fits = []
+    for layout in layouts:
+        if start is not None:
+            starts = [layout.pack(start.exposure_rows, start.smoothing_rows, start.gamma, start.on_knots,
+                                  start.off_knots, [ph + start.exposure_rows / 2 for ph in phases0])]
+        else:
+            # A grid: the box and the Gaussian trade off, and the phase
+            # guess from the fundamental is off by half the box.
+            gammas = (1.0, 2.2) if layout.fit_gamma else (1.0,)
+            starts = [layout.pack(e0 * period_rows, 0.5, g0, [hi**g0] * nk, [lo**g0] * nk,
+                                  [ph + e0 * period_rows / 2 for ph in phases0])
+                      for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in gammas]
+        sparsity = layout.sparsity(rows, knots, 4.0 * period_rows)  # σ ≤ P, the kernel within 4σ
+        fits.append((layout, _solve(layout, starts, make_residuals(layout), period_rows, sparsity)))
+    layout, best = min(fits, key=lambda f: _bic(f[1], target.size))
+    e, s, g, on, off, phases = layout.unpack(best.x)
     dof = max(1, best.fun.size - best.x.size)
     rms = float(np.sqrt(np.mean(best.fun**2)))
-    uncertainties = {}
+    uncertainties = {"exposure_rows": math.nan, "smoothing_rows": 0.0, "gamma": 0.0}
     try:
-        cov = np.linalg.pinv(best.jac.T @ best.jac) * (2 * best.cost / dof)
+        jac = best.jac.toarray() if hasattr(best.jac, "toarray") else best.jac
+        cov = np.linalg.pinv(jac.T @ jac) * (2 * best.cost / dof)
         sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-        uncertainties = {"exposure_rows": float(sd[0]), "smoothing_rows": float(sd[1]),
-                         "gamma": float(sd[2]) if fit_gamma else 0.0}
+        uncertainties["exposure_rows"] = float(sd[0])
+        if layout.fit_smoothing:
+            uncertainties["smoothing_rows"] = float(sd[1])
+        if layout.fit_gamma:
+            uncertainties["gamma"] = float(sd[1 + layout.fit_smoothing])
     except np.linalg.LinAlgError:
-        uncertainties = {"exposure_rows": float("nan"), "smoothing_rows": float("nan"), "gamma": float("nan")}
-    return StripeFit(float(e), float(s), float(g), float(on), float(off), (float(env[0]), float(env[1])),
+        pass
+    return StripeFit(float(e), float(s), float(g), float(np.median(on)), float(np.median(off)),
+                     tuple(float(k) for k in knots), tuple(float(v) for v in on), tuple(float(v) for v in off),
                      tuple(float(p % period_rows) for p in phases), rms, uncertainties)

@@ -1,0 +1,82 @@
+"""A camera fit checked by rendering it: row profiles and noise, frames against the fit."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from rollsim.fit.measure import column_pattern_std, level_noise_pairs, temporal_noise
+from rollsim.fit.noise import unclipped
+from rollsim.fit.refine import CameraFit
+
+
+def bright_rows_noise(levels: np.ndarray, variances: np.ndarray) -> float:
+    """Temporal noise (8-bit levels) of the brightest quarter of the points; 0 without points."""
+    if levels.size == 0:
+        return 0.0
+    top = levels >= np.percentile(levels, 75)
+    return float(np.sqrt(np.mean(variances[top])))
+
+
+
+
+def aligned_correlation(a: np.ndarray, b: np.ndarray, period_rows: float, step: float = 0.1) -> float:
+    """Pearson correlation of two row profiles, ``b`` shifted by the best fraction of a
+    stripe period in [−P/2, P/2] (a free-running camera's stripes sit at any phase).
+
+    The ends, P/2 rows each, are left out so that every shift compares the same rows.
+    """
+    margin = int(math.ceil(period_rows / 2)) + 1
+    if a.size <= 2 * margin + 2:
+        raise ValueError("the row profiles are shorter than a stripe period")
+    rows = np.arange(a.size, dtype=np.float64)
+    inner = rows[margin:-margin]
+    best = -1.0
+    for shift in np.arange(-period_rows / 2, period_rows / 2 + step, step):
+        moved = np.interp(inner + shift, rows, b)
+        r = float(np.corrcoef(a[margin:-margin], moved)[0, 1])
+        best = max(best, r)
+    return best
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """The frames beside frames rendered from the fit."""
+
+    correlations: tuple  # per frame pair, aligned Pearson r of the row profiles
+    noise: dict  # name -> (frames, rendered), 8-bit levels
+    profile_pair: tuple  # (frames' first profile, rendered first profile), for the report's plot
+
+
+def output_noise(frames: Sequence[np.ndarray], fit: CameraFit) -> dict:
+    """The temporal and fixed-pattern noise of frames in the fit's regions, 8-bit levels: the LED's
+    brightest unclipped rows that hold one level in two frames, and the background where there is one."""
+    levels, variances = level_noise_pairs(frames, *fit.band)
+    keep = unclipped(levels)
+    out = {"temporal_led_bright": bright_rows_noise(levels[keep], variances[keep])}
+    if fit.background_block is not None:
+        bg = temporal_noise(frames, *fit.background_block)
+        mean_frame = np.mean(frames, axis=0)
+        out.update(temporal_background=bg.pixel_std, row_temporal_background=bg.row_std,
+                   column_pattern_background=column_pattern_std(mean_frame, *fit.background_block, len(frames),
+                                                                bg.pixel_std))
+    return out
+
+
+def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
+    """Render the fitted scene (as many frames) and set it beside the frames."""
+    from rollsim.render import render_frames
+
+    frames = [np.asarray(f, dtype=np.float64) for f in frames]
+    images, _ = render_frames(fit.scene, len(frames))
+    rendered = [np.asarray(im, dtype=np.float64) for im in images]
+    rows, cols = fit.band
+    period = 2.0 / (fit.scene.link.clock_hz * fit.scene.camera.row_time_s)
+    real = [f[rows, cols].mean(axis=1) for f in frames]
+    sim = [f[rows, cols].mean(axis=1) for f in rendered]
+    correlations = tuple(aligned_correlation(a, b, period) for a, b in zip(real, sim))
+    ours, theirs = output_noise(frames, fit), output_noise(rendered, fit)
+    return Comparison(correlations, {k: (ours[k], theirs[k]) for k in ours}, (real[0], sim[0]))

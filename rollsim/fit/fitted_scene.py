@@ -1,0 +1,128 @@
+"""The scene a camera fit makes: the base scene with the fitted camera, ISP, LED image and ambient light.
+
+What the frames do not show stays the base scene's: the lens and the LED's
+distance always; the row noise and column pattern without a background;
+the LED's size and place when it fills the frame (it is then made to cover
+the frame); the gain and read noise as :func:`rollsim.fit.camera.noise_from_points`
+says (:mod:`rollsim.fit.camera`).
+"""
+
+from __future__ import annotations
+
+import math
+
+from rollsim.fit.camera import NOT_IDENTIFIED, Estimate, Measured, Parameters, gain_per_full_scale
+from rollsim.fit.noise import linear_level
+from rollsim.scene.model import Scene
+
+# Below these the fit leaves the effect out (a smaller figure is the estimator's noise).
+MIN_SMOOTHING_ROWS = 0.3
+MIN_GAMMA_CHANGE = 0.05
+# An LED that fills the frame is given a disk this many frame diagonals across (it covers the frame).
+COVER_DIAGONALS = 1.5
+# The largest OFF level (a fraction of the ON level) the fit sets.
+MAX_OFF_LEVEL = 0.5
+# Effects the fit sets or leaves out; the base scene's others are kept.
+FITTED_EFFECTS = ("tone_curve", "isp_smoothing", "row_noise", "column_fpn", "led_profile", "sharpening", "jpeg",
+                  "glare")
+
+
+def led_disk_px(m: Measured, shape) -> tuple[float, float, float]:
+    """The LED's centre (x, y) and diameter, pixels: the fitted disk, or one covering the frame."""
+    disk = m.region.disk
+    if disk is not None:
+        return disk.centre_x_px, disk.centre_y_px, 2.0 * disk.radius_px
+    h, w = shape
+    return 0.5 * w, 0.5 * h, COVER_DIAGONALS * math.hypot(h, w)
+
+
+def led_geometry(m: Measured, scene: Scene) -> dict:
+    """The LED's place and size as estimates, with their source."""
+    x, y, d = led_disk_px(m, (scene.camera.height_px, scene.camera.width_px))
+    if m.region.disk is not None:
+        return {"led_centre_x_px": Estimate(x, None, "px", "median chord midpoint"),
+                "led_centre_y_px": Estimate(y, None, "px", "circle fitted to the chords"),
+                "led_diameter_px": Estimate(d, None, "px", "circle fitted to the chords")}
+    why = "the LED fills the frame: no edge to place it by; made to cover the frame"
+    return {"led_centre_x_px": Estimate(x, None, "px", "the frame's centre", NOT_IDENTIFIED, why),
+            "led_centre_y_px": Estimate(y, None, "px", "the frame's centre", NOT_IDENTIFIED, why),
+            "led_diameter_px": Estimate(d, None, "px", f"{COVER_DIAGONALS} frame diagonals", NOT_IDENTIFIED, why)}
+
+
+def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, profile) -> dict:
+    effects = {name: value for name, value in base_effects.items() if name not in FITTED_EFFECTS}
+    for name in ("row_noise", "column_fpn"):  # kept from the base scene where the frames give none
+        if getattr(p, "row_lin" if name == "row_noise" else "col_lin") is None and name in base_effects:
+            effects[name] = base_effects[name]
+    effects.update(ambient={}, shot_noise={"method": "poisson"}, read_noise={"method": "table"})
+    if gamma != 1.0:
+        effects["tone_curve"] = {"curve": "gamma", "gamma": round(gamma, 4)}
+    if smoothing > 0:
+        effects["isp_smoothing"] = {"sigma_rows_px": round(smoothing, 4)}
+    read_e = p.read_lin / p.k_lin
+    if p.row_lin is not None and p.row_lin / p.k_lin > 0.05 * read_e:
+        effects["row_noise"] = {"std_e": round(p.row_lin / p.k_lin, 4)}
+    if p.col_lin is not None and p.col_lin / p.k_lin > 0.05 * read_e:
+        effects["column_fpn"] = {"std_e": round(p.col_lin / p.k_lin, 4)}
+    if profile is not None:
+        effects["led_profile"] = {"profile": "table", "radial_table": profile}
+    return effects
+
+
+def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters, notes: list) -> Scene:
+    """The base scene with the fitted camera, ISP, LED image and ambient light."""
+    from rollsim.optics import led_image_size_px
+    from rollsim.optics.scene_light import ambient_electron_rates
+    from rollsim.render.tuning import on_level_electrons
+    from rollsim.scene import scene_from_dict
+
+    data = base.model_dump(mode="json", exclude_none=True)
+    camera = data["camera"]
+    camera.pop("ifg_ratio", None)
+    row_time_s = m.row_time_s
+    gamma = p.gamma if abs(p.gamma - 1.0) >= MIN_GAMMA_CHANGE else 1.0
+    smoothing = p.smoothing_rows if p.smoothing_rows >= MIN_SMOOTHING_ROWS else 0.0
+    iso = base.camera.iso * p.k_lin / gain_per_full_scale(base)  # the gain is proportional to the ISO
+    frame_period_s = 1.0 / camera["frame_rate_hz"]
+    exposure_us = min(p.exposure_rows * row_time_s, frame_period_s - shape[0] * row_time_s) * 1e6
+    if exposure_us < p.exposure_rows * row_time_s * 1e6:
+        notes.append("the exposure is cut to what the base scene's frame rate leaves")
+    camera.update(width_px=shape[1], height_px=shape[0], row_time_us=row_time_s * 1e6,
+                  exposure_us=max(exposure_us, 1e-3), iso=min(max(iso, 1.0), 1e7),
+                  read_noise_e=min(p.read_lin / p.k_lin, 1e4), output="gray8")
+    data["link"].update(clock_hz=clock_hz, pattern="square")
+    data["effects"] = _effects(data.get("effects", {}), p, gamma, smoothing, m.profile)
+    x, y, diameter = led_disk_px(m, shape)
+    data["led"]["position_px"] = [x, y]
+    data["led"]["shape"] = "disk"
+    sized = scene_from_dict(data, "fitted scene")
+    data["led"]["size_mm"] = sized.led.size_mm * diameter / led_image_size_px(sized)
+
+    # Ambient light from the background's linear level, or (no background)
+    # from the OFF rows: the ambient light on the LED's face.
+    sized = scene_from_dict(data, "fitted scene")
+    exposure_s = sized.camera.exposure_s
+    k_lin = gain_per_full_scale(sized)
+    bg_rate, face_rate = ambient_electron_rates(sized)
+    if m.background is not None:
+        wanted, rate = float(linear_level(m.background, gamma)) / k_lin, bg_rate
+    else:
+        wanted, rate = p.off_lin / k_lin, face_rate
+    if rate > 0:
+        data["environment"]["ambient_lux"] = sized.environment.ambient_lux * wanted / (rate * exposure_s)
+    sized = scene_from_dict(data, "fitted scene")
+    # The linear ON level over the LED's rows; the intensity is linear in it.
+    on_e = p.on_lin / k_lin
+    led_e = on_level_electrons(sized) - (ambient_electron_rates(sized)[1] * exposure_s)
+    face_e = on_level_electrons(sized) - led_e
+    if led_e > 0 and on_e > face_e:
+        data["led"]["luminous_intensity_cd"] = sized.led.luminous_intensity_cd * (on_e - face_e) / led_e
+        # OFF rows above the ambient light on the LED's face (an LED never
+        # fully off, or glare from the ON rows around them): the LED's OFF level.
+        off_e = p.off_lin / k_lin
+        data["led"]["off_level"] = round(min(MAX_OFF_LEVEL, max(0.0, (off_e - face_e) / (on_e - face_e))), 6) \
+            if m.background is not None else 0.0
+    else:
+        notes.append("the LED's ON level does not clear the ambient light on its face: intensity kept")
+    return scene_from_dict(data, "fitted scene")
+

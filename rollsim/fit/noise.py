@@ -1,0 +1,103 @@
+"""Temporal noise against level: the photon-transfer line, and the noise at anchor levels.
+
+The fit's noise statistics are pairs (8-bit level, temporal variance) from
+rows that hold one level in two frames (:func:`rollsim.fit.measure.level_noise_pairs`)
+and from the background. Through the fitted tone curve v^(1/γ) and the
+ISP's vertical smoothing they become linear: a level u (fraction of the
+ADC range) and a variance a + b·u, b being the gain (fraction of the range
+per electron: shot noise) and a the read noise's variance. Rows clipped at
+black or at full scale have lost their noise and are left out.
+
+How much the frames give depends on the levels they hold:
+
+- two levels far enough apart: the line, so the gain and the read noise;
+- one level: the output noise there, so the gain given a read noise (the
+  base scene's);
+- none: neither (both from the base scene).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rollsim.isp import gaussian_kernel
+
+# 8-bit levels this close to 0 or 255 are clipped in part and left out.
+CLIP_MARGIN = 8
+# Two anchors when the usable levels span at least this ratio (linear);
+# else one.
+MIN_LEVEL_SPAN = 1.5
+# A point counts at an anchor within this fraction of its level (or 2 levels).
+ANCHOR_TOLERANCE = 0.15
+
+
+def linear_level(level, gamma: float) -> np.ndarray:
+    """The linear fraction (v/255)^γ of the ADC range behind an 8-bit level."""
+    return np.clip(np.asarray(level, dtype=np.float64) / 255.0, 0.0, 1.0) ** gamma
+
+
+def tone_slope(level, gamma: float) -> np.ndarray:
+    """d(linear fraction)/d(8-bit level) of the tone curve v^(1/γ) at an 8-bit level."""
+    v = np.clip(np.asarray(level, dtype=np.float64) / 255.0, 1.0 / 510.0, 1.0)
+    return gamma * v ** (gamma - 1.0) / 255.0
+
+
+def noise_gain(sigma_rows: float) -> float:
+    """The variance a white noise keeps through the ISP's vertical Gaussian: Σk²."""
+    kernel = gaussian_kernel(sigma_rows).astype(np.float64)
+    return float(np.sum(kernel**2))
+
+
+def unclipped(levels: np.ndarray) -> np.ndarray:
+    """Which 8-bit levels are clear of both clips (:data:`CLIP_MARGIN`)."""
+    levels = np.asarray(levels, dtype=np.float64)
+    return (levels > CLIP_MARGIN) & (levels < 255 - CLIP_MARGIN)
+
+
+def photon_transfer(levels_lin: np.ndarray, variances_lin: np.ndarray) -> tuple[float, float, float, float]:
+    """Least-squares line variance = a + b·level, weighted for the variance's own spread.
+
+    Returns a, b and their one-sigma uncertainties.
+    """
+    weights = 1.0 / np.maximum(variances_lin, 1e-12)  # the variance of a variance ∝ its square
+    design = np.column_stack([np.ones_like(levels_lin), levels_lin])
+    sw = np.sqrt(weights)
+    coef, *_ = np.linalg.lstsq(design * sw[:, None], variances_lin * sw, rcond=None)
+    resid = (variances_lin - design @ coef) * sw
+    dof = max(1, levels_lin.size - 2)
+    cov = np.linalg.pinv((design * sw[:, None]).T @ (design * sw[:, None])) * float(resid @ resid) / dof
+    return float(coef[0]), float(coef[1]), float(np.sqrt(max(cov[0, 0], 0.0))), float(np.sqrt(max(cov[1, 1], 0.0)))
+
+
+def anchor_levels(levels: np.ndarray, gamma: float) -> list[float]:
+    """The 8-bit levels the noise is matched at: the medians of the lowest and
+    highest thirds of the points when they span :data:`MIN_LEVEL_SPAN`
+    (linear), else their median; none without points."""
+    levels = np.sort(np.asarray(levels, dtype=np.float64))
+    if levels.size == 0:
+        return []
+    lin = linear_level(levels, gamma)
+    third = max(1, levels.size // 3)
+    low, high = float(np.median(levels[:third])), float(np.median(levels[-third:]))
+    if levels.size >= 6 and lin[-third:].min() >= MIN_LEVEL_SPAN * max(lin[:third].max(), 1e-12):
+        return [low, high]
+    return [float(np.median(levels))]
+
+
+def noise_at(levels: np.ndarray, variances: np.ndarray, anchor: float) -> float | None:
+    """Mean temporal variance of the points within :data:`ANCHOR_TOLERANCE` of
+    ``anchor`` (8-bit levels), or None when none is."""
+    near = np.abs(np.asarray(levels) - anchor) <= max(2.0, ANCHOR_TOLERANCE * anchor)
+    return float(np.mean(np.asarray(variances)[near])) if near.any() else None
+
+
+def gain_given_read(level_lin: float, variance_lin: float, read_e: float) -> float:
+    """The gain b (fraction of the range per electron) for which a read noise of
+    ``read_e`` electrons and shot noise give ``variance_lin`` at ``level_lin``:
+    the positive root of read_e²·b² + u·b − v = 0."""
+    if read_e <= 0:
+        return variance_lin / max(level_lin, 1e-12)
+    r2 = read_e**2
+    return (-level_lin + math.sqrt(level_lin**2 + 4.0 * r2 * variance_lin)) / (2.0 * r2)

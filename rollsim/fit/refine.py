@@ -1,0 +1,194 @@
+"""Fit a camera to real frames of a square-wave LED: what the frames hold, and the rest from the base scene.
+
+:func:`fit_camera` measures the frames (:func:`rollsim.fit.camera.measure`),
+reads the parameters off the statistics, makes the scene
+(:func:`rollsim.fit.fitted_scene.fitted_scene`) and refines it by
+rendering: the same statistics of rendered frames, in the same rows and
+columns, move each parameter by the difference (indirect inference). Every
+estimate says whether it came from the frames, from the base scene, or was
+not identified (and why).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+
+from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
+    anchor_variance, corrected, direct, measure, noise_anchors
+from rollsim.fit.fitted_scene import fitted_scene, led_geometry
+from rollsim.fit.noise import unclipped
+from rollsim.scene.model import Scene
+
+
+@dataclass
+class CameraFit:
+    """Everything :func:`fit_camera` estimated, and the scene it makes."""
+
+    estimates: dict
+    scene: Scene
+    measured: Measured  # the frames' statistics the fit started from
+    notes: list = field(default_factory=list)
+
+    @property
+    def band(self) -> tuple[slice, slice]:
+        """Rows and columns of the LED's central band (the row profiles')."""
+        return self.measured.region.band
+
+    @property
+    def background_block(self) -> tuple[slice, slice] | None:
+        """Rows and columns of the background region (None: the LED fills the frame)."""
+        return self.measured.region.block
+
+    def to_json(self) -> dict:
+        return {name: e.to_json() for name, e in self.estimates.items()}
+
+
+
+
+def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, iterations: int = 4,
+               progress: Callable[[str], None] | None = None) -> CameraFit:
+    """Fit a camera, its ISP and the LED's image to frames of a square-wave LED.
+
+    The parameters read off the frames' statistics are then refined by
+    ``iterations`` rounds of indirect inference: the fitted scene is
+    rendered, the same statistics are taken from its frames (in the same
+    rows and columns), and each parameter moves by the difference (see
+    :func:`corrected`).
+
+    Parameters
+    ----------
+    frames : sequence of ndarray
+        At least two 8-bit grey frames (H, W) of one camera, consecutive, of
+        an LED sending ON and OFF chips alternately at ``clock_hz``.
+    clock_hz : float
+        The chip rate, Hz.
+    base : Scene
+        The scene whose optics, LED geometry and distance the fit keeps, and
+        whose values stand in for what the frames do not show.
+    iterations : int
+        Rounds of refinement by rendering (0: the direct estimates).
+    progress : callable, optional
+        Called with a line at each stage.
+
+    Returns
+    -------
+    CameraFit
+
+    Raises
+    ------
+    ValueError
+        Fewer than two frames, frames of different sizes, or no square wave
+        to read (:class:`decoder.RowTimeError`, a ValueError).
+    """
+    from decoder import estimate_row_time
+
+    from rollsim.render import render_frames
+
+    say = progress or (lambda line: None)
+    frames = [np.asarray(f, dtype=np.float64) for f in frames]
+    if len(frames) < 2:
+        raise ValueError("fit-camera needs at least two frames (the temporal noise comes from frame pairs)")
+    shape = frames[0].shape
+    if any(f.shape != shape for f in frames) or len(shape) != 2:
+        raise ValueError("the frames must all be grey images of one size")
+    # The cheap check first: without a square wave nothing is fitted.
+    row_time = estimate_row_time([np.clip(np.rint(f), 0, 255).astype(np.uint8) for f in frames], clock_hz)
+    say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px; "
+        "fitting the stripes and the noise")
+    target = measure(frames, clock_hz, row_time=row_time)
+    say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
+    params, noise = direct(target, base)
+    notes: list[str] = []
+    scene = fitted_scene(base, shape, clock_hz, target, params, notes)
+    best = None
+    for k in range(iterations + 1):
+        images, _ = render_frames(scene, len(frames))
+        rendered = measure([np.asarray(im, dtype=np.float64) for im in images], clock_hz,
+                           row_time=(scene.camera.row_time_s, 0.0), region=target.region, start=target.stripes)
+        score = mismatch(target, rendered, params.gamma)
+        if best is None or score < best[0]:
+            best = (score, params, scene, notes)
+        if k == iterations:
+            break
+        params = corrected(params, noise, target, rendered)
+        notes = []
+        scene = fitted_scene(base, shape, clock_hz, target, params, notes)
+        say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
+            f"(mismatch of the last {score:.3g})")
+    assert best is not None  # the loop runs at least once
+    _, params, scene, notes = best
+    return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes)
+
+
+def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
+    """How far the statistics of frames rendered from a fit lie from the frames':
+    squared differences of the stripes' shape (relative to the exposure; γ as is),
+    squared log ratios of the levels and of the noise at the anchor levels.
+    The refinement keeps the round with the least (it never ends worse than
+    it began, as measured)."""
+    def log_ratio(x, y):
+        return math.log(x / y) if x is not None and y is not None and x > 0 and y > 0 else 0.0
+
+    t, r = target.stripes, rendered.stripes
+    scale = max(1.0, t.exposure_rows)  # rows
+    total = ((t.exposure_rows - r.exposure_rows) / scale) ** 2 + ((t.smoothing_rows - r.smoothing_rows) / scale) ** 2
+    total += (t.gamma - r.gamma) ** 2 + log_ratio(t.on, r.on) ** 2 + log_ratio(t.off, r.off) ** 2
+    for anchor in noise_anchors(target, gamma):
+        total += 0.25 * log_ratio(anchor_variance(target, anchor), anchor_variance(rendered, anchor)) ** 2
+    return total
+
+
+def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene) -> dict:
+    """Every parameter of the fitted scene with its uncertainty and source."""
+    cam = scene.camera
+    t_row_us = m.row_time_s * 1e6
+    unc = m.stripes.uncertainties
+    no_background = "no background: the LED fills the frame" if m.region.block is None else (
+        "the background is clipped at black" if m.background is not None and not unclipped(np.array([m.background]))[0]
+        else None)
+    out = {
+        "row_time_us": Estimate(t_row_us, m.row_time_sd_s * 1e6, "us", "stripe period of the square wave"),
+        "exposure_us": Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
+                                "width of the box that rounds the stripes' edges (ramps between clipped plateaus "
+                                "and the OFF runs' widths when saturated), refined by rendering"),
+        "isp_smoothing_rows": Estimate(p.smoothing_rows, unc.get("smoothing_rows"), "rows",
+                                       "sigma of the ISP's vertical Gaussian, from the edges' shape"),
+        "tone_gamma": Estimate(p.gamma, unc.get("gamma"), "", "gamma of the tone curve v^(1/gamma), from the edges"),
+        "gain_dn_per_e": Estimate(cam.gain_dn_per_e_at_iso, None, "DN/e", "slope of the photon-transfer line "
+                                  "(or the noise at one level), refined by rendering", noise.gain_source,
+                                  noise.reason if noise.gain_source != FRAMES else None),
+        "iso": Estimate(cam.iso, None, "", "the gain over the preset's", noise.gain_source,
+                        noise.reason if noise.gain_source != FRAMES else None),
+        "read_noise_e": Estimate(cam.read_noise_e, None, "e-", "intercept of the photon-transfer line",
+                                 noise.read_source, noise.reason if noise.read_source != FRAMES else None),
+        "on_level": Estimate(p.on_lin, None, "full scales", "the LED's linear ON level at its centre (stripe fit; "
+                             "above 1 when saturated), refined by rendering"),
+        "off_level": Estimate(p.off_lin, None, "full scales", "the OFF rows' linear level, refined by rendering"),
+        "profile_rms_residual": Estimate(m.stripes.rms_residual, None, "8-bit", "stripe fit's residual"),
+    }
+    for name, value, how in (("row_noise_e", p.row_lin, "row means of background frame differences"),
+                             ("column_fpn_e", p.col_lin, "column means of the background's mean frame")):
+        if value is not None:
+            out[name] = Estimate(value / p.k_lin, None, "e-", how)
+        else:
+            effect = getattr(base.effects, name.rsplit("_", 1)[0], None)
+            std = float(getattr(effect, "std_e", 0.0) or 0.0)
+            out[name] = Estimate(std, None, "e-", how, NOT_IDENTIFIED, no_background or "no background")
+    if m.background is not None:
+        out["background_level"] = Estimate(m.background, None, "8-bit", "median of the background block's mean")
+        out["temporal_noise_background"] = Estimate(m.background_noise.pixel_std if m.background_noise else 0.0,
+                                                    None, "8-bit", "frame differences over sqrt 2, background")
+    else:
+        out["ambient_lux"] = Estimate(scene.environment.ambient_lux, None, "lx", "from the OFF rows' level "
+                                      "(the ambient light on the LED's face)", FRAMES)
+    out.update(led_geometry(m, scene))
+    lens = base.camera
+    for name, value, unit in (("focal_length_mm", lens.focal_length_mm, "mm"), ("f_number", lens.f_number, ""),
+                              ("distance_cm", base.link.distance_cm, "cm")):
+        out[name] = Estimate(float(value), None, unit, "kept", BASE,
+                             "frames of a square wave show neither the lens nor the distance")
+    return out
