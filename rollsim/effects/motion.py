@@ -54,7 +54,8 @@ def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     rows = np.arange(-ry, height + ry)
 
     def run(state: FrameState) -> None:
-        mid_exposure_s = state.start_s + rows * timing.row_time_s + 0.5 * timing.exposure_s
+        mid_exposure_s = state.start_s + (rows - rows % timing.binning_rows) * timing.row_time_s \
+            + 0.5 * timing.exposure_s
         canvas = motion_footprint(path, (cx + rx, cy + ry), setup.led_size_px, scene.led.shape,
                                   (height + 2 * ry, width + 2 * rx), mid_exposure_s, scene.render.footprint_edge)
         fp = blur_canvas(canvas, kernels, setup.shape) if kernels else canvas

@@ -31,8 +31,8 @@ from typing import Sequence
 
 import numpy as np
 
-from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, find_led_region, level_noise_pairs, \
-    temporal_noise
+from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, detect_binning, find_led_region, \
+    level_noise_pairs, temporal_noise
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
     photon_transfer, \
     tone_slope, unclipped
@@ -151,6 +151,7 @@ class Measured:
     row_noise: float | None  # the background's row temporal noise, 8-bit
     column_pattern: float | None  # the background's column offsets, 8-bit
     profile: list | None
+    binning: tuple[int, int]  # binned readout seen: (k, offset of the first group); (1, 0) none
 
 
 def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float] | None = None,
@@ -171,10 +172,11 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     brightest = np.max(frames, axis=0)
     mean_frame = np.mean(frames, axis=0)
     if region is None:
-        region = find_led_region(brightest, mean_frame, HALO_RADII)
+        region = find_led_region(brightest, np.min(frames, axis=0), mean_frame, HALO_RADII, period)
     rows, cols = region.band
+    binning = detect_binning(frames)
     profiles = [f[rows, cols].mean(axis=1) for f in frames]
-    stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start)
+    stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning)
     levels, variances = level_noise_pairs(frames, rows, cols)
     background = bg_noise = row_noise = column = None
     if region.block is not None:
@@ -193,7 +195,7 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     else:
         profile = radial_profile(linear_level(brightest, stripes.gamma), region, on_rows, stripes.off)
     return Measured(row_time_s, row_time_sd, region, background, stripes, levels[keep], variances[keep], bg_noise,
-                    row_noise, column, profile)
+                    row_noise, column, profile, binning)
 
 
 # --------------------------------------------------------------- parameters

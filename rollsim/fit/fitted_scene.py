@@ -87,7 +87,12 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     exposure_us = min(p.exposure_rows * row_time_s, frame_period_s - shape[0] * row_time_s) * 1e6
     if exposure_us < p.exposure_rows * row_time_s * 1e6:
         notes.append("the exposure is cut to what the base scene's frame rate leaves")
-    camera.update(width_px=shape[1], height_px=shape[0], row_time_us=row_time_s * 1e6,
+    k = m.binning[0]
+    if shape[0] % k:
+        notes.append(f"rows come in groups of {k} (binned readout), but {k} does not divide the height: "
+                     "rendered unbinned")
+        k = 1
+    camera.update(binning_rows=k, width_px=shape[1], height_px=shape[0], row_time_us=row_time_s * 1e6,
                   exposure_us=max(exposure_us, 1e-3), iso=min(max(iso, 1.0), 1e7),
                   read_noise_e=min(p.read_lin / p.k_lin, 1e4), output="gray8")
     data["link"].update(clock_hz=clock_hz, pattern="square")

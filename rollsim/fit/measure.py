@@ -110,12 +110,53 @@ class LedRegion:
     block: tuple[slice, slice] | None
 
 
-def lit_border_fraction(brightest: np.ndarray) -> float:
-    """Fraction of the frame's border pixels above half-way between the frame's 1st and 99th percentiles."""
-    low, high = np.percentile(brightest, [1, 99])
+# Rows in groups of k are binned when neighbours within a group differ at
+# most this fraction as much as neighbours across a group's edge.
+BINNED_RATIO = 0.25
+MAX_BINNING = 8
+
+
+def detect_binning(frames: Sequence[np.ndarray]) -> tuple[int, int]:
+    """Binned readout seen in the frames: (k, offset), rows ``offset + j·k``
+    starting each group of k near-identical rows; (1, 0) when the rows are not
+    grouped.
+
+    For each k (2 … :data:`MAX_BINNING`) and offset, the mean absolute
+    difference of neighbouring rows within groups is set against that
+    across group edges; the frames are binned by the k whose ratio is
+    lowest, when it is under :data:`BINNED_RATIO`.
+    """
+    stack = np.asarray(frames, dtype=np.float64)
+    steps = np.abs(np.diff(stack, axis=1)).mean(axis=(0, 2))  # row r+1 against row r, over frames and columns
+    best, best_ratio = (1, 0), BINNED_RATIO
+    boundary = np.arange(1, steps.size + 1)  # steps[i] compares rows i and i + 1
+    for k in range(2, MAX_BINNING + 1):
+        if stack.shape[1] < 4 * k:
+            break
+        for offset in range(k):
+            across = (boundary - offset) % k == 0
+            if not across.any() or across.all():
+                continue
+            inside, edge = float(steps[~across].mean()), float(steps[across].mean())
+            ratio = inside / edge if edge > 0 else 1.0
+            if ratio < best_ratio - 1e-12:
+                best, best_ratio = (k, offset), ratio
+    return best
+
+
+def lit_border_fraction(brightest: np.ndarray, darkest: np.ndarray, period_rows: float) -> float:
+    """Fraction of the frame's border pixels lit: the brightest frame's maximum
+    over a stripe period of rows (a row the stripes left dark in every frame
+    is still the LED's) above half-way from the darkest frame's 1st
+    percentile (OFF rows, or the background) to the LED's peak."""
+    from scipy.ndimage import maximum_filter1d, median_filter
+
+    envelope = maximum_filter1d(brightest, size=max(1, int(np.ceil(period_rows))) | 1, axis=0, mode="nearest")
+    # The LED's peak, robust to a hot pixel: the largest 3×3 median.
+    low, high = float(np.percentile(darkest, 1)), float(median_filter(envelope, size=3).max())
     if not high > low:
         return 0.0
-    lit = brightest > 0.5 * (low + high)
+    lit = envelope > 0.5 * (low + high)
     border = np.concatenate([lit[0], lit[-1], lit[1:-1, 0], lit[1:-1, -1]])
     return float(border.mean())
 
@@ -135,8 +176,12 @@ def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float)
     return block if area >= MIN_BACKGROUND_PIXELS else None
 
 
-def find_led_region(brightest: np.ndarray, mean_frame: np.ndarray, halo_radii: float) -> LedRegion:
+def find_led_region(brightest: np.ndarray, darkest: np.ndarray, mean_frame: np.ndarray, halo_radii: float,
+                    period_rows: float) -> LedRegion:
     """The LED's disk (or that it fills the frame), its central band and a background block.
+
+    ``brightest``, ``darkest`` and ``mean_frame`` are the frames' pixelwise
+    maximum, minimum and mean; ``period_rows`` is the stripe period (rows).
 
     Raises
     ------
@@ -145,7 +190,7 @@ def find_led_region(brightest: np.ndarray, mean_frame: np.ndarray, halo_radii: f
     """
     shape = brightest.shape
     h, w = shape
-    if lit_border_fraction(brightest) >= FILLS_BORDER_FRACTION:
+    if lit_border_fraction(brightest, darkest, period_rows) >= FILLS_BORDER_FRACTION:
         c0, c1 = (0, w) if w <= NARROW_COLUMNS else (int(0.2 * w), int(np.ceil(0.8 * w)))
         return LedRegion(None, (slice(0, h), slice(c0, c1)), None)
     background = float(np.median(mean_frame))

@@ -185,6 +185,8 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
     else:
         out["ambient_lux"] = Estimate(scene.environment.ambient_lux, None, "lx", "from the OFF rows' level "
                                       "(the ambient light on the LED's face)", FRAMES)
+    out["binning_rows"] = Estimate(float(scene.camera.binning_rows), None, "rows",
+                                   "rows in groups of near-identical values (binned readout)")
     out.update(led_geometry(m, scene))
     lens = base.camera
     for name, value, unit in (("focal_length_mm", lens.focal_length_mm, "mm"), ("f_number", lens.f_number, ""),

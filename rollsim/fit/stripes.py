@@ -125,18 +125,23 @@ def knot_rows(rows: np.ndarray, period_rows: float) -> np.ndarray:
 
 
 def stripe_profile(rows: np.ndarray, period_rows: float, phase_rows: float, exposure_rows: float,
-                   smoothing_rows: float, gamma: float, on, off, knots: np.ndarray | None = None) -> np.ndarray:
+                   smoothing_rows: float, gamma: float, on, off, knots: np.ndarray | None = None,
+                   binning: tuple[int, int] = (1, 0)) -> np.ndarray:
     """The modelled 8-bit row profile (0 … 255, float) at ``rows`` (consecutive rows).
 
     Parameters are those of :class:`StripeFit` and :func:`square_wave_box`;
     ``on`` and ``off`` are levels (floats), or their values at ``knots``
-    (rows), interpolated linearly between them.
+    (rows), interpolated linearly between them. ``binning`` (k, offset):
+    rows in groups of k, the groups starting at rows offset + j·k, each row
+    exposed as its group's first (binned readout).
     """
     rows = np.asarray(rows, dtype=np.float64)
     if knots is not None:
         on = np.interp(rows, knots, on)
         off = np.interp(rows, knots, off)
-    level = off + (on - off) * square_wave_box(rows, period_rows, phase_rows, exposure_rows)
+    k, offset = binning
+    exposed = rows - np.mod(rows - offset, k) if k > 1 else rows
+    level = off + (on - off) * square_wave_box(exposed, period_rows, phase_rows, exposure_rows)
     out = 255.0 * np.power(np.clip(level, 0.0, 1.0), 1.0 / gamma)
     return _smoothed(out, smoothing_rows)
 
@@ -235,7 +240,7 @@ def _solve(layout: _Layout, starts: list, residuals, period_rows: float, sparsit
 
 
 def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float,
-                start: StripeFit | None = None) -> StripeFit:
+                start: StripeFit | None = None, binning: tuple[int, int] = (1, 0)) -> StripeFit:
     """Fit the stripe model to the row profiles of several frames.
 
     The smoothing σ and the tone curve's γ are kept only where the frames
@@ -255,6 +260,8 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     start : StripeFit, optional
         A fit of similar frames over the same rows to start from (one start
         instead of a grid, and its choice of σ and γ).
+    binning : (int, int)
+        Binned readout (k, offset), as :func:`stripe_profile`.
 
     Returns
     -------
@@ -274,7 +281,7 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     def make_residuals(layout):
         def residuals(x):
             e, s, g, on, off, phases = layout.unpack(x)
-            return np.concatenate([stripe_profile(rows, period_rows, ph, e, s, g, on, off, knots)
+            return np.concatenate([stripe_profile(rows, period_rows, ph, e, s, g, on, off, knots, binning)
                                    for ph in phases]) - target
         return residuals
 

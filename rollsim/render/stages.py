@@ -139,7 +139,26 @@ def output_stage(setup: SceneSetup) -> Stage:
     raise RollsimError(f"camera.output = {cam.output!r} is not available yet in this version of rollsim")
 
 
-CORE_BUILDERS = (frame_start_stage, led_exposure_stage, led_signal_stage, full_well_stage, adc_stage, output_stage)
+def binning_stage(setup: SceneSetup) -> Stage | None:
+    """Binned readout (``camera.binning_rows`` = k > 1): each group of k rows,
+    exposed together (:meth:`rollsim.sensor.RowTiming.row_windows`), is
+    averaged (rounded half up) and written to all k rows. The mean is kept;
+    the temporal variance of the k independent rows falls k-fold."""
+    k = setup.scene.camera.binning_rows
+    if k == 1:
+        return None
+
+    def run(state):
+        image = state.image
+        groups = image.reshape(image.shape[0] // k, k, *image.shape[1:]).astype(np.uint32)
+        mean = ((groups.sum(axis=1) + k // 2) // k).astype(image.dtype)
+        state.image = np.repeat(mean, k, axis=0)
+
+    return Stage("binning", "output", run)
+
+
+CORE_BUILDERS = (frame_start_stage, led_exposure_stage, led_signal_stage, full_well_stage, adc_stage, output_stage,
+                 binning_stage)
 
 
 def _check_effects(setup: SceneSetup) -> None:
@@ -170,7 +189,7 @@ def assemble_stages(setup: SceneSetup) -> list[Stage]:
 
     ``setup`` comes from :func:`prepare_setup`, which checked the effects.
     """
-    core = [builder(setup) for builder in CORE_BUILDERS]
+    core = [stage for stage in (builder(setup) for builder in CORE_BUILDERS) if stage is not None]
     stages = [effect.stage(setup, params) for effect, params in setup.scene.effects.listed()]
     order = {slot: i for i, slot in enumerate(SLOTS)}
     # Stable sort: by slot, core first within a slot, then registry order.

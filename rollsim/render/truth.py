@@ -65,8 +65,10 @@ def frame_truth(setup: SceneSetup, index: int, start_s: float, led_rows=None) ->
     ends = starts + tx.sdu_duration_s
     first = timing.row_of_time(starts, start_s)
     last = timing.row_of_time(ends, start_s)
-    inner_first = np.ceil((starts - start_s) / timing.row_time_s - 1e-9).astype(np.int64)
-    inner_last = np.floor((ends - timing.exposure_s - start_s) / timing.row_time_s + 1e-9).astype(np.int64)
+    # A row's window starts with its group's (k rows read as one; k = 1 unbinned).
+    k, group_time = timing.binning_rows, timing.binning_rows * timing.row_time_s
+    inner_first = k * np.ceil((starts - start_s) / group_time - 1e-9).astype(np.int64)
+    inner_last = k * np.floor((ends - timing.exposure_s - start_s) / group_time + 1e-9).astype(np.int64) + k - 1
     if led_rows:
         visible_from, visible_to = timing.rows_span_s(led_rows[0], led_rows[1], start_s)
         fully = (starts >= visible_from) & (ends <= visible_to)

@@ -552,6 +552,9 @@ def consistency_errors(scene: Scene, source: str, relax: Iterable[str] = ()) -> 
             f"{cam.readout_s * 1e3:.4g} ms, longer than the frame period {cam.frame_period_s * 1e3:.4g} ms "
             f"(frame_rate_hz = {_fmt_number(cam.frame_rate_hz)})"
         )
+    if cam.height_px % cam.binning_rows:
+        errors.append(f"{source}: camera.binning_rows = {cam.binning_rows}: must divide camera.height_px = "
+                      f"{cam.height_px} (the rows are read in groups of binning_rows)")
     if cam.exposure_s > cam.frame_period_s * (1 + 1e-12):
         errors.append(
             f"{source}: camera.exposure_us = {_fmt_number(cam.exposure_us)}: longer than the frame period "

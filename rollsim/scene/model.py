@@ -53,6 +53,10 @@ class Camera(_Section):
     # map, hot pixels, column pattern); the scene's seed then seeds only the
     # temporal noise. None: the scene's seed seeds both.
     identity_seed: Optional[int] = Field(None, ge=0, le=2**63 - 1)
+    # Binned readout: k rows exposed and read as one (their exposure windows
+    # start together, a group every k·row_time_us), averaged, and written to
+    # all k output rows. row_time_us stays the time per output row.
+    binning_rows: int = Field(1, ge=1, le=8)  # must divide height_px (the loader's consistency check)
 
     @property
     def frame_period_s(self) -> float:

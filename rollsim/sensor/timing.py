@@ -37,6 +37,7 @@ class RowTiming:
     row_time_s: float
     exposure_s: float
     height_px: int
+    binning_rows: int = 1
 
     def __post_init__(self):
         if self.height_px * self.row_time_s > self.frame_period_s * (1 + 1e-12):
@@ -47,7 +48,8 @@ class RowTiming:
     @classmethod
     def from_camera(cls, camera) -> "RowTiming":
         """Timing of a :class:`rollsim.scene.Camera`."""
-        return cls(camera.frame_period_s, camera.row_time_s, camera.exposure_s, camera.height_px)
+        return cls(camera.frame_period_s, camera.row_time_s, camera.exposure_s, camera.height_px,
+                   camera.binning_rows)
 
     def frame_start_s(self, frame) -> np.ndarray:
         """Nominal start t_k = k·T_f of frames ``frame`` (no jitter)."""
@@ -55,8 +57,15 @@ class RowTiming:
 
     def row_windows(self, frame_start_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Start and end times of every row's exposure window in a frame."""
-        start = frame_start_s + np.arange(self.height_px) * self.row_time_s
+        start = frame_start_s + self.row_offsets_s()
         return start, start + self.exposure_s
+
+    def row_offsets_s(self) -> np.ndarray:
+        """Each row's exposure start after the frame's: r·t_row, or with binned
+        readout ⌊r/k⌋·k·t_row (the k rows of a group start together)."""
+        rows = np.arange(self.height_px)
+        k = self.binning_rows
+        return (rows - rows % k) * self.row_time_s
 
     def row_of_time(self, t_s, frame_start_s: float) -> np.ndarray:
         """Fractional row whose exposure window is centred on times ``t_s``."""
@@ -64,7 +73,8 @@ class RowTiming:
 
     def rows_span_s(self, first_row: int, last_row: int, frame_start_s: float) -> tuple[float, float]:
         """Time span [start of row ``first_row``, end of row ``last_row``'s exposure]."""
+        k = self.binning_rows
         return (
-            frame_start_s + first_row * self.row_time_s,
-            frame_start_s + last_row * self.row_time_s + self.exposure_s,
+            frame_start_s + (first_row - first_row % k) * self.row_time_s,
+            frame_start_s + (last_row - last_row % k) * self.row_time_s + self.exposure_s,
         )
