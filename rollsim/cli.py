@@ -399,7 +399,7 @@ def cmd_fit_camera(args) -> int:
             raise RollsimError(str(exc)) from None
         if image.dtype != np.uint8:
             raise RollsimError(f"{path}: fit-camera reads 8-bit frames (a camera's processed output), got 16-bit")
-        frames.append(image if image.ndim == 2 else image.mean(axis=2))
+        frames.append(image)
     base = load_scene(args.scene, args.overrides)
     try:
         fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
@@ -414,6 +414,8 @@ def cmd_fit_camera(args) -> int:
           f"ISO {est['iso'].value:.0f}, read noise {est['read_noise_e'].value:.2f} e-, "
           f"LED at ({est['led_centre_x_px'].value:.1f}, {est['led_centre_y_px'].value:.1f}) px, "
           f"diameter {est['led_diameter_px'].value:.1f} px")
+    if fit.channel != "grey":
+        print(f"colour frames: fitted on their {fit.channel}" + (" channel" if fit.channel != "luminance" else ""))
     missing = [name for name, e in est.items() if e.source == "not identified"]
     if missing:
         print(f"not identified from these frames (the base scene's values, reasons in report.md): {', '.join(missing)}")

@@ -70,7 +70,7 @@ def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
     """Render the fitted scene (as many frames) and set it beside the frames."""
     from rollsim.render import render_frames
 
-    frames = [np.asarray(f, dtype=np.float64) for f in frames]
+    frames = fit.grey(frames)
     images, _ = render_frames(fit.scene, len(frames))
     rendered = [np.asarray(im, dtype=np.float64) for im in images]
     rows, cols = fit.band

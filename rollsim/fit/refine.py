@@ -17,6 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from rollsim.fit.channel import choose_channel
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
     anchor_variance, corrected, direct, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
@@ -32,6 +33,15 @@ class CameraFit:
     scene: Scene
     measured: Measured  # the frames' statistics the fit started from
     notes: list = field(default_factory=list)
+    channel: str = "grey"  # what of the frames was fitted: grey, or a colour frame's luminance or channel
+
+    def grey(self, frames: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """``frames`` as the fit saw them (the chosen plane of colour frames), float64."""
+        from rollsim.fit.channel import candidate_planes
+
+        if self.channel == "grey":
+            return [np.asarray(f, dtype=np.float64) for f in frames]
+        return [candidate_planes(f)[self.channel] for f in frames]
 
     @property
     def band(self) -> tuple[slice, slice]:
@@ -62,8 +72,11 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     Parameters
     ----------
     frames : sequence of ndarray
-        At least two 8-bit grey frames (H, W) of one camera, consecutive, of
-        an LED sending ON and OFF chips alternately at ``clock_hz``.
+        At least two 8-bit frames of one camera, consecutive, grey (H, W) or
+        RGB (H, W, 3), of an LED sending ON and OFF chips alternately at
+        ``clock_hz``. Colour frames are fitted on their luminance or the
+        channel with the best stripe contrast-to-noise
+        (:func:`rollsim.fit.channel.choose_channel`), and the fit says which.
     clock_hz : float
         The chip rate, Hz.
     base : Scene
@@ -89,15 +102,21 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     from rollsim.render import render_frames
 
     say = progress or (lambda line: None)
-    frames = [np.asarray(f, dtype=np.float64) for f in frames]
+    frames = [np.asarray(f) for f in frames]
     if len(frames) < 2:
         raise ValueError("fit-camera needs at least two frames (the temporal noise comes from frame pairs)")
     shape = frames[0].shape
-    if any(f.shape != shape for f in frames) or len(shape) != 2:
-        raise ValueError("the frames must all be grey images of one size")
+    if any(f.shape != shape for f in frames) or not (len(shape) == 2 or (len(shape) == 3 and shape[2] == 3)):
+        raise ValueError("the frames must all be grey or all RGB images of one size")
     # The cheap check first: without a square wave nothing is fitted.
     row_time = estimate_row_time([np.clip(np.rint(f), 0, 255).astype(np.uint8) for f in frames], clock_hz)
-    say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px; "
+    channel = "grey"
+    if len(shape) == 3:
+        channel, frames = choose_channel(frames, 2.0 / (clock_hz * row_time[0]))
+        shape = shape[:2]
+    else:
+        frames = [f.astype(np.float64) for f in frames]
+    say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px ({channel}); "
         "fitting the stripes and the noise")
     target = measure(frames, clock_hz, row_time=row_time)
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
@@ -121,7 +140,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             f"(mismatch of the last {score:.3g})")
     assert best is not None  # the loop runs at least once
     _, params, scene, notes = best
-    return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes)
+    return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes, channel)
 
 
 def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:

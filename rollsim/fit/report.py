@@ -29,6 +29,7 @@ def fit_json(fit: CameraFit, comparison: Comparison, clock_hz: float, sources: l
     payload = {
         "frames": sources,
         "clock_hz": clock_hz,
+        "channel": fit.channel,
         "estimates": fit.to_json(),
         "notes": fit.notes,
         "check": {
@@ -63,7 +64,8 @@ def profile_plot_png(comparison: Comparison, first_row: int) -> bytes:
 
 def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str:
     lines = ["# rollsim fit-camera", "",
-             f"{len(sources)} frames; the scene is `camera.yaml`, every estimate with its uncertainty in `fit.json`.",
+             f"{len(sources)} frames ({fit.channel}); the scene is `camera.yaml`, every estimate with its "
+             "uncertainty and source in `fit.json`.",
              "", "## Estimates", "",
              "Source: `frames` (fitted to them), `base scene` (what frames of a square wave never show) or "
              "`not identified` (what these frames do not show; the base scene's value is used).", "",
