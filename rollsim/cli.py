@@ -678,7 +678,7 @@ def _bench_main(module: str):
     def run(args) -> int:
         from importlib import import_module
 
-        return import_module(f"rollsim.bench.{module}").main(args)
+        return import_module(f"rollsim.bench.{module.replace('-', '_')}").main(args)
 
     return run
 
@@ -926,6 +926,17 @@ def _add_bench_commands(sub) -> None:
     _add_json_file(p)
     _add_force(p, "those files if present")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+
+    p = add("fit-camera", "the camera fit on hidden cameras drawn at random: fitted or refused, each parameter's "
+            "error, the re-rendered frames' row-profile correlation and the time, against the targets")
+    p.add_argument("--seed", type=int, default=1, help="seed the hidden cameras are drawn from (default 1)")
+    p.add_argument("--cameras", type=_positive_int, default=40, help="hidden cameras (default 40)")
+    p.add_argument("--max-height", type=_positive_int, default=2160,
+                   help="largest frame height drawn, px (default 2160; smaller for a quick check)")
+    p.add_argument("--workers", type=_workers, default=1, help="cameras fitted in parallel (default 1: one core)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    _add_json_file(p)
+    _add_force(p)
 
     p = add("accuracy", "what accuracy costs: each fidelity setting against the most accurate one, in time, image "
             "error, noise distribution, decode outcomes and the MMBP fit; and each effect's cost")

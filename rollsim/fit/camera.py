@@ -36,7 +36,8 @@ from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, de
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
     photon_transfer, \
     tone_slope, unclipped
-from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, fit_stripes
+from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, fit_stripes, levels_for_whole_periods, \
+    reflected_levels
 from rollsim.scene.model import Scene
 from rollsim.sensor.adc import full_scale_electrons
 
@@ -152,6 +153,7 @@ class Measured:
     column_pattern: float | None  # the background's column offsets, 8-bit
     profile: list | None
     binning: tuple[int, int]  # binned readout seen: (k, offset of the first group); (1, 0) none
+    stripes_period_rows: float  # the stripe period the stripes were fitted with
 
 
 def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float] | None = None,
@@ -195,7 +197,7 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     else:
         profile = radial_profile(linear_level(brightest, stripes.gamma), region, on_rows, stripes.off)
     return Measured(row_time_s, row_time_sd, region, background, stripes, levels[keep], variances[keep], bg_noise,
-                    row_noise, column, profile, binning)
+                    row_noise, column, profile, binning, period)
 
 
 # --------------------------------------------------------------- parameters
@@ -299,16 +301,46 @@ def noise_from_points(m: Measured, gamma: float, smoothing_rows: float, base: Sc
                     "no row holds one unclipped level in two frames, and there is no unclipped background")
 
 
+# Whole stripe periods of exposure the fit considers beyond the shortest.
+MAX_WHOLE_PERIODS = 4
+
+
+def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:
+    """The exposure (rows) and linear ON and OFF levels, of those the stripes allow.
+
+    The stripes' shape tells the exposure only up to whole periods and the
+    reflection E ↔ P − E (:func:`rollsim.fit.stripes.levels_for_whole_periods`,
+    :func:`rollsim.fit.stripes.reflected_levels`); each choice implies its
+    own OFF level. An LED is dark when OFF: the choice whose OFF level is
+    nearest the ambient light on the LED's face is taken, that level being
+    the background's times the base scene's face over background reflectance
+    (0 without a background).
+    """
+    s, period = m.stripes, m.stripes_period_rows
+    face = 0.0
+    if m.background is not None:
+        face = float(linear_level(m.background, s.gamma)) * base.led.face_reflectance / max(
+            base.environment.background_reflectance, 1e-9)
+    starts = [(s.exposure_rows, s.on, s.off)]
+    if 0 < s.exposure_rows < period:
+        starts.append(reflected_levels(s.exposure_rows, s.on, s.off, period))
+    candidates = [levels_for_whole_periods(e0, on0, off0, period, k)
+                  for e0, on0, off0 in starts for k in range(MAX_WHOLE_PERIODS + 1)]
+    exposure, on, off = min(candidates, key=lambda c: abs(float(c[2]) - face))
+    return float(exposure), float(on), float(off)
+
+
 def direct(m: Measured, base: Scene) -> tuple[Parameters, NoiseFit]:
     """Parameters read straight off the statistics."""
     s = m.stripes
     noise = noise_from_points(m, s.gamma, s.smoothing_rows, base)
+    exposure, on, off = resolve_exposure(m, base)
     slope = float(tone_slope(m.background, s.gamma)) if m.background is not None else 0.0
     keep = noise_gain(s.smoothing_rows)
     row_lin = m.row_noise * slope / math.sqrt(keep) if m.row_noise is not None else None
     col_lin = m.column_pattern * slope if m.column_pattern is not None else None
-    return Parameters(s.exposure_rows, s.smoothing_rows, s.gamma, s.on, s.off, noise.k_lin, noise.read_lin,
-                      row_lin, col_lin), noise
+    return Parameters(float(exposure), s.smoothing_rows, s.gamma, float(on), max(0.0, float(off)), noise.k_lin,
+                      noise.read_lin, row_lin, col_lin), noise
 
 
 def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measured) -> Parameters:

@@ -21,7 +21,7 @@ each frame's phase φ to the row profiles of several frames by least squares
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
@@ -319,6 +319,56 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
             uncertainties["gamma"] = float(sd[1 + layout.fit_smoothing])
     except np.linalg.LinAlgError:
         pass
-    return StripeFit(float(e), float(s), float(g), float(np.median(on)), float(np.median(off)),
-                     tuple(float(k) for k in knots), tuple(float(v) for v in on), tuple(float(v) for v in off),
-                     tuple(float(p % period_rows) for p in phases), rms, uncertainties)
+    fit = StripeFit(float(e), float(s), float(g), float(np.median(on)), float(np.median(off)),
+                    tuple(float(k) for k in knots), tuple(float(v) for v in on), tuple(float(v) for v in off),
+                    tuple(float(p % period_rows) for p in phases), rms, uncertainties)
+    return whole_periods_removed(fit, period_rows)
+
+
+def levels_for_whole_periods(e_rows: float, on, off, period_rows: float, whole: int) -> tuple:
+    """The ON and OFF levels that, with ``whole`` more stripe periods of
+    exposure, make the same row profile as ``on`` and ``off`` with ``e_rows``.
+
+    A box of E = E₀ + k·P rows holds k whole periods (k·P/2 rows ON) and
+    the box of E₀: w_E = (k·P/2 + E₀·w_E₀)/E. So the same profile needs the
+    contrast Δ = Δ₀·E/E₀ and the OFF level off₀ − Δ₀·k·P/(2·E₀): the
+    stripes alone tell the exposure modulo one period (two chips), and
+    each more period lowers the OFF level by Δ₀·P/(2·E₀).
+
+    Returns ``(exposure_rows, on, off)``; ``whole`` may be negative.
+    """
+    on, off = np.asarray(on, dtype=np.float64), np.asarray(off, dtype=np.float64)
+    delta = on - off
+    exposure = e_rows + whole * period_rows
+    new_off = off - delta * whole * period_rows / (2.0 * e_rows)
+    return exposure, new_off + delta * exposure / e_rows, new_off
+
+
+def reflected_levels(e_rows: float, on, off, period_rows: float) -> tuple:
+    """The exposure P − E and the levels that make the same row profile as E.
+
+    Half a period on, the square wave is its own complement (w_E(r + P/2)
+    = 1 − w_E(r)), so a box of P − E gives w_(P−E) = (P/2 − E + E·w_E)/(P − E)
+    at a shifted phase: the same shape with Δ' = Δ·(P − E)/E and the OFF
+    level off − Δ·(P/2 − E)/E. Returns ``(exposure_rows, on, off)``.
+    """
+    on, off = np.asarray(on, dtype=np.float64), np.asarray(off, dtype=np.float64)
+    delta = on - off
+    new_delta = delta * (period_rows - e_rows) / e_rows
+    new_off = off - delta * (0.5 * period_rows - e_rows) / e_rows
+    return period_rows - e_rows, new_off + new_delta, new_off
+
+
+def whole_periods_removed(fit: StripeFit, period_rows: float) -> StripeFit:
+    """The same profile with the exposure brought into (0, P] (see :func:`levels_for_whole_periods`)."""
+    whole = int(np.ceil(fit.exposure_rows / period_rows - 1e-9)) - 1
+    if whole <= 0:
+        return fit
+    e0 = fit.exposure_rows - whole * period_rows
+    # The inverse: −whole periods from E, written with E₀'s own formula.
+    delta = np.asarray(fit.on_knots) - np.asarray(fit.off_knots)
+    delta0 = delta * e0 / fit.exposure_rows
+    off0 = np.asarray(fit.off_knots) + delta * whole * period_rows / (2.0 * fit.exposure_rows)
+    on0 = off0 + delta0
+    return replace(fit, exposure_rows=float(e0), on=float(np.median(on0)), off=float(np.median(off0)),
+                   on_knots=tuple(float(v) for v in on0), off_knots=tuple(float(v) for v in off0))
