@@ -420,7 +420,7 @@ def cmd_fit_camera(args) -> int:
     if missing:
         print(f"not identified from these frames (the base scene's values, reasons in report.md): {', '.join(missing)}")
     print(f"row-profile correlation with the fit: mean {np.mean(comparison.correlations):.4f}; "
-          f"wrote {out / 'camera.yaml'}, fit.json, report.md, profiles.png")
+          f"wrote {out / 'camera.yaml'}, fit.json, report.md, profiles.png, frames.png")
     return EXIT_OK
 
 
@@ -762,7 +762,7 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--iterations", type=_non_negative_int, default=4,
                    help="rounds of refinement by rendering the fit (default 4; 0: direct estimates)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory: camera.yaml, fit.json, report.md")
-    _add_force(p, "existing camera.yaml, fit.json, report.md and profiles.png")
+    _add_force(p, "existing camera.yaml, fit.json, report.md, profiles.png and frames.png")
     _add_set_option(p)
     p.set_defaults(func=cmd_fit_camera)
 

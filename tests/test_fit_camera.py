@@ -145,13 +145,22 @@ def test_fit_camera_recovers_the_hidden_camera(round_trip):
 
 def test_the_fitted_scene_renders_and_the_report_is_complete(round_trip, tmp_path):
     out = round_trip / "fit"
-    assert {p.name for p in out.iterdir()} >= {"camera.yaml", "fit.json", "report.md", "profiles.png"}
+    assert {p.name for p in out.iterdir()} >= {"camera.yaml", "fit.json", "report.md", "profiles.png", "frames.png"}
     data = yaml.safe_load((out / "camera.yaml").read_text())
     assert data["link"]["pattern"] == "square" and data["camera"]["row_time_us"] > 0
     assert main(["render", str(out / "camera.yaml"), "--out", str(tmp_path / "again"), "--frames", "2",
                  "--quiet", "--workers", "1"]) == 0
     report = (out / "report.md").read_text()
-    assert "Pearson correlation" in report and "temporal_background" in report
+    assert "Pearson correlation" in report and "temporal_background" in report and "](frames.png)" in report
+    # Every parameter says where it came from; the lens and the distance never from frames.
+    fit = json.loads((out / "fit.json").read_text())
+    assert {e["source"] for e in fit["estimates"].values()} <= {"frames", "base scene", "not identified"}
+    assert fit["estimates"]["focal_length_mm"]["source"] == "base scene"
+    assert "| source |" in report and "| base scene |" in report
+    import cv2
+
+    picture = cv2.imread(str(out / "frames.png"), cv2.IMREAD_GRAYSCALE)
+    assert picture is not None and picture.shape[1] > 2 * picture.shape[0] * 0.9  # two crops side by side
     # Outputs are never silently overwritten.
     assert main(["fit-camera", str(round_trip / "hidden" / "frames"), "--clock-hz", "4000", "--out", str(out),
                  "--iterations", "0"]) != 0

@@ -33,7 +33,7 @@ BASE_SCENE = "paper-geometric"
 FRAMES = 6
 # Stripes below this contrast (8-bit levels, linear, once clipped) hold no readable square wave.
 MIN_CONTRAST_8BIT = 6.0
-MIN_PERIODS = 3.0
+MIN_PERIODS = 4.0  # the row-time estimator needs 8 edges (decoder.rowtime.MIN_EDGES) in a frame
 TARGETS = {"fitted_fraction": 0.90, "row_time": 0.005, "exposure": 0.10, "exposure_saturated": 0.15,
            "temporal_noise": 0.20, "correlation": 0.98, "median_seconds": 30.0}
 

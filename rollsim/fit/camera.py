@@ -303,6 +303,8 @@ def noise_from_points(m: Measured, gamma: float, smoothing_rows: float, base: Sc
 
 # Whole stripe periods of exposure the fit considers beyond the shortest.
 MAX_WHOLE_PERIODS = 4
+# The lowest OFF level (fraction of the ADC range) a choice of exposure may imply.
+MIN_OFF_LEVEL = -0.005
 
 
 def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:
@@ -321,12 +323,18 @@ def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:
     if m.background is not None:
         face = float(linear_level(m.background, s.gamma)) * base.led.face_reflectance / max(
             base.environment.background_reflectance, 1e-9)
-    starts = [(s.exposure_rows, s.on, s.off)]
+    # A wave fitted upside down (ON below OFF) is the same wave half a period
+    # on, with the levels swapped (w_E(r + P/2) = 1 − w_E(r)).
+    on0, off0 = (s.on, s.off) if s.on >= s.off else (s.off, s.on)
+    starts = [(s.exposure_rows, on0, off0)]
     if 0 < s.exposure_rows < period:
-        starts.append(reflected_levels(s.exposure_rows, s.on, s.off, period))
-    candidates = [levels_for_whole_periods(e0, on0, off0, period, k)
-                  for e0, on0, off0 in starts for k in range(MAX_WHOLE_PERIODS + 1)]
-    exposure, on, off = min(candidates, key=lambda c: abs(float(c[2]) - face))
+        starts.append(reflected_levels(s.exposure_rows, on0, off0, period))
+    candidates = [levels_for_whole_periods(e0, a, b, period, k)
+                  for e0, a, b in starts for k in range(MAX_WHOLE_PERIODS + 1)]
+    # Light is never negative: an OFF level below zero (beyond the fit's
+    # noise, MIN_OFF_LEVEL) is not a choice.
+    possible = [c for c in candidates if float(c[2]) >= MIN_OFF_LEVEL] or candidates
+    exposure, on, off = min(possible, key=lambda c: abs(float(c[2]) - face))
     return float(exposure), float(on), float(off)
 
 

@@ -49,6 +49,27 @@ class Comparison:
     correlations: tuple  # per frame pair, aligned Pearson r of the row profiles
     noise: dict  # name -> (frames, rendered), 8-bit levels
     profile_pair: tuple  # (frames' first profile, rendered first profile), for the report's plot
+    frame_pair: tuple  # (frames' first, rendered first) cropped at the LED, 8-bit, for the report's picture
+
+
+# The report's crops: the LED's disk and this much around it, at most MAX_CROP_PX on a side.
+CROP_RADII = 1.4
+MAX_CROP_PX = 480
+
+
+def led_crop(fit: CameraFit, shape: tuple[int, int]) -> tuple[slice, slice]:
+    """Rows and columns of a crop around the LED (the whole frame when it fills it),
+    strided to at most :data:`MAX_CROP_PX` on a side."""
+    h, w = shape
+    disk = fit.measured.region.disk
+    if disk is None:
+        r0, r1, c0, c1 = 0, h, 0, w
+    else:
+        reach = CROP_RADII * disk.radius_px
+        r0, r1 = max(0, int(disk.centre_y_px - reach)), min(h, int(math.ceil(disk.centre_y_px + reach)))
+        c0, c1 = max(0, int(disk.centre_x_px - reach)), min(w, int(math.ceil(disk.centre_x_px + reach)))
+    step = max(1, int(math.ceil(max(r1 - r0, c1 - c0) / MAX_CROP_PX)))
+    return slice(r0, r1, step), slice(c0, c1, step)
 
 
 def output_noise(frames: Sequence[np.ndarray], fit: CameraFit) -> dict:
@@ -79,4 +100,6 @@ def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
     sim = [f[rows, cols].mean(axis=1) for f in rendered]
     correlations = tuple(aligned_correlation(a, b, period) for a, b in zip(real, sim))
     ours, theirs = output_noise(frames, fit), output_noise(rendered, fit)
-    return Comparison(correlations, {k: (ours[k], theirs[k]) for k in ours}, (real[0], sim[0]))
+    crop = led_crop(fit, frames[0].shape)
+    pair = (np.clip(frames[0][crop], 0, 255).astype(np.uint8), np.clip(rendered[0][crop], 0, 255).astype(np.uint8))
+    return Comparison(correlations, {k: (ours[k], theirs[k]) for k in ours}, (real[0], sim[0]), pair)

@@ -20,6 +20,8 @@ MIN_SMOOTHING_ROWS = 0.3
 MIN_GAMMA_CHANGE = 0.05
 # An LED that fills the frame is given a disk this many frame diagonals across (it covers the frame).
 COVER_DIAGONALS = 1.5
+# A frame period this much longer than the readout, where the base scene's is too short.
+FRAME_GAP = 1.01
 # The largest OFF level (a fraction of the ON level) the fit sets.
 MAX_OFF_LEVEL = 0.5
 # Effects the fit sets or leaves out; the base scene's others are kept.
@@ -83,6 +85,12 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     gamma = p.gamma if abs(p.gamma - 1.0) >= MIN_GAMMA_CHANGE else 1.0
     smoothing = p.smoothing_rows if p.smoothing_rows >= MIN_SMOOTHING_ROWS else 0.0
     iso = base.camera.iso * p.k_lin / gain_per_full_scale(base)  # the gain is proportional to the ISO
+    # Stills do not show the frame rate: the base scene's, unless the rows
+    # read out take longer (then the readout's, and a 1 % gap).
+    readout_s = shape[0] * row_time_s
+    if readout_s * FRAME_GAP > 1.0 / camera["frame_rate_hz"]:
+        camera["frame_rate_hz"] = 1.0 / (readout_s * FRAME_GAP)
+        notes.append(f"the frame rate is lowered to {camera['frame_rate_hz']:.4g} Hz so that the rows fit a frame")
     frame_period_s = 1.0 / camera["frame_rate_hz"]
     exposure_us = min(p.exposure_rows * row_time_s, frame_period_s - shape[0] * row_time_s) * 1e6
     if exposure_us < p.exposure_rows * row_time_s * 1e6:

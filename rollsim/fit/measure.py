@@ -111,9 +111,10 @@ class LedRegion:
 
 
 # Rows in groups of k are binned when neighbours within a group differ at
-# most this fraction as much as neighbours across a group's edge.
-BINNED_RATIO = 0.25
-MAX_BINNING = 8
+# most this fraction as much as neighbours across a group's edge (a
+# JPEG's 8-row blocks and 4:2:0 chroma pairs stay above it).
+BINNED_RATIO = 0.1
+MAX_BINNING = 4
 
 
 def detect_binning(frames: Sequence[np.ndarray]) -> tuple[int, int]:

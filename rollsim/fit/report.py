@@ -11,7 +11,7 @@ import yaml
 from rollsim.fit.check import Comparison
 from rollsim.fit.refine import CameraFit
 
-FILES = ("camera.yaml", "fit.json", "report.md", "profiles.png")
+FILES = ("camera.yaml", "fit.json", "report.md", "profiles.png", "frames.png")
 
 
 def scene_yaml(fit: CameraFit, sources: list[str]) -> str:
@@ -62,6 +62,18 @@ def profile_plot_png(comparison: Comparison, first_row: int) -> bytes:
     return data
 
 
+def frames_png(comparison: Comparison) -> bytes:
+    """The first frame and the first frame rendered from the fit, side by side, cropped at the LED."""
+    import cv2
+
+    real, sim = comparison.frame_pair
+    gap = np.full((real.shape[0], max(4, real.shape[1] // 40)), 255, np.uint8)
+    ok, data = cv2.imencode(".png", np.hstack([real, gap, sim]))
+    if not ok:
+        raise RuntimeError("could not encode frames.png")
+    return data.tobytes()
+
+
 def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str:
     lines = ["# rollsim fit-camera", "",
              f"{len(sources)} frames ({fit.channel}); the scene is `camera.yaml`, every estimate with its "
@@ -75,7 +87,9 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
         why = e.how if e.reason is None else f"{e.how}; {e.reason}"
         lines.append(f"| {name} | {e.value:.6g} | {unc} | {e.unit} | {e.source} | {why} |")
     r = np.asarray(comparison.correlations)
-    lines += ["", "## Row profiles, frames against the fit", "",
+    lines += ["", "## Frames against the fit", "",
+              "![the first frame (left) and the first frame rendered from the fit (right), at the LED](frames.png)",
+              "", "## Row profiles, frames against the fit", "",
               "![row profiles](profiles.png)", "",
               f"Pearson correlation of the row profiles (the LED's central columns, each rendered frame "
               f"shifted by its best phase within half a stripe period): mean {r.mean():.4f}, "
@@ -93,7 +107,8 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
 
 
 def fit_outputs(out: Path, fit: CameraFit, comparison: Comparison, clock_hz: float, sources: list[str]) -> dict:
-    """``{path: text or bytes}`` of the four files."""
+    """``{path: text or bytes}`` of the five files."""
     contents = (scene_yaml(fit, sources), fit_json(fit, comparison, clock_hz, sources),
-                report_md(fit, comparison, sources), profile_plot_png(comparison, fit.band[0].start))
+                report_md(fit, comparison, sources), profile_plot_png(comparison, fit.band[0].start),
+                frames_png(comparison))
     return {out / name: data for name, data in zip(FILES, contents)}

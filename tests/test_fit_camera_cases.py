@@ -1,0 +1,116 @@
+"""rollsim fit-camera on the frames researchers have: a dark background, a saturated LED
+filling the frame, and narrow binned crops; what the stripes cannot tell; and refusals."""
+
+import time
+
+import numpy as np
+import pytest
+
+from rollsim.fit import fit_camera
+from rollsim.fit.measure import detect_binning
+from rollsim.fit.stripes import levels_for_whole_periods, reflected_levels, stripe_profile
+from rollsim.render import render_frames
+from rollsim.scene import load_scene
+
+BASE = "paper-geometric"  # fit-camera's default base scene
+
+
+def _fit(scene_name, overrides, frames=4):
+    hidden = load_scene(scene_name, ["link.pattern=square", "seed=3", *overrides])
+    images, _ = render_frames(hidden, frames)
+    fit = fit_camera([np.asarray(im) for im in images], hidden.link.clock_hz, load_scene(BASE, []))
+    return hidden, fit
+
+
+def _check_times(hidden, fit, exposure_tolerance):
+    est = fit.estimates
+    assert est["row_time_us"].value == pytest.approx(hidden.camera.row_time_s * 1e6, rel=0.005)
+    assert est["exposure_us"].value == pytest.approx(hidden.camera.exposure_us, rel=exposure_tolerance)
+    assert all(e.source in ("frames", "base scene", "not identified") for e in est.values())
+
+
+def test_a_whole_disk_on_a_dark_background_is_fitted():
+    # paper-default at ISO 400 with the LED at 20 cm: ON at about 100 of 255,
+    # the background at the black clip (once refused: "no noise to fit").
+    hidden, fit = _fit("paper-default", ["camera.iso=400", "link.distance_cm=20"])
+    _check_times(hidden, fit, 0.10)
+    est = fit.estimates
+    assert est["background_level"].value < 8  # black
+    # The clipped background holds no noise: row noise and column pattern
+    # are the base scene's, and say why.
+    assert est["row_noise_e"].source == "not identified" and "black" in est["row_noise_e"].reason
+    assert est["gain_dn_per_e"].source == "frames"
+
+
+def test_a_saturated_led_filling_the_frame_is_fitted():
+    # paper-default at its own ISO 10000: ON at ~15 full scales, one-row
+    # OFF dips, glare around it (once +31-34 % on the exposure).
+    hidden, fit = _fit("paper-default", [])
+    _check_times(hidden, fit, 0.15)
+    assert fit.estimates["on_level"].value > 1.0  # saturated, and modelled so
+
+
+def test_narrow_binned_crops_of_an_led_filling_them_are_fitted():
+    # As a Raspberry Pi camera's crops: 864 x 16, rows in identical pairs,
+    # the LED filling the crop (once refused after 10 min: no background).
+    crop = ["camera.width_px=16", "camera.height_px=864", "camera.row_time_us=18.2", "camera.exposure_us=60",
+            "link.clock_hz=2000", "led.size_mm=200", "camera.iso=800", "led.luminous_intensity_cd=20",
+            "camera.binning_rows=2"]
+    started = time.perf_counter()
+    hidden, fit = _fit(BASE, crop, frames=8)
+    assert time.perf_counter() - started < 120  # was 10 min 33 s; about 15 s here
+    _check_times(hidden, fit, 0.10)
+    est = fit.estimates
+    assert est["binning_rows"].value == 2 and fit.scene.camera.binning_rows == 2
+    assert est["led_diameter_px"].source == "not identified" and "fills the frame" in est["led_diameter_px"].reason
+    assert est["row_noise_e"].source == "not identified"
+
+
+# ------------------------------------------------ what the stripes cannot tell
+
+
+@pytest.mark.parametrize("whole", [1, 2, 3])
+def test_whole_periods_of_exposure_make_the_same_stripes(whole):
+    rows, period = np.arange(300.0), 11.3
+    base = stripe_profile(rows, period, 2.1, 3.7, 0.0, 1.0, 0.6, 0.05)
+    exposure, on, off = levels_for_whole_periods(3.7, 0.6, 0.05, period, whole)
+    assert exposure == pytest.approx(3.7 + whole * period)
+    np.testing.assert_allclose(stripe_profile(rows, period, 2.1, exposure, 0.0, 1.0, on, off), base, atol=1e-9)
+    assert off < 0.05  # each period more lowers the OFF level
+
+
+def test_an_exposure_and_its_reflection_make_the_same_stripes_half_a_period_apart():
+    rows, period = np.arange(300.0), 12.0
+    base = stripe_profile(rows, period, 1.3, 4.0, 0.0, 1.0, 0.5, 0.1)
+    exposure, on, off = reflected_levels(4.0, 0.5, 0.1, period)
+    assert exposure == 8.0
+    shifted = [np.abs(stripe_profile(rows, period, phase, exposure, 0.0, 1.0, on, off) - base).max()
+               for phase in 1.3 + np.arange(0.0, period, 0.5)]
+    assert min(shifted) < 1e-9
+
+
+def test_binning_is_detected_from_identical_row_groups():
+    rng = np.random.default_rng(2)
+    assert detect_binning(list(rng.normal(100, 20, (4, 200, 30)))) == (1, 0)
+    pairs = np.repeat(rng.normal(100, 20, (4, 101, 30)), 2, axis=1)
+    assert detect_binning(list(pairs[:, :200] + rng.normal(0, 0.5, (4, 200, 30)))) == (2, 0)
+    assert detect_binning(list(pairs[:, 1:201])) == (2, 1)  # the first group cut by the crop
+    triples = np.repeat(rng.normal(100, 20, (4, 70, 30)), 3, axis=1)[:, :200]
+    assert detect_binning(list(triples)) == (3, 0)
+
+
+# ----------------------------------------------------------------- refusals
+
+
+def test_data_frames_at_1080p_are_refused_within_5_s_in_one_line(tmp_path, capsys):
+    from rollsim.cli import main
+
+    out = tmp_path / "data"
+    assert main(["render", "paper-default", "--frames", "10", "--out", str(out), "--quiet", "--workers", "1"]) == 0
+    capsys.readouterr()
+    started = time.perf_counter()
+    assert main(["fit-camera", str(out / "frames"), "--clock-hz", "8000", "--out", str(tmp_path / "fit")]) == 2
+    assert time.perf_counter() - started < 5.0
+    err = capsys.readouterr().err.strip()
+    assert err == "rollsim: error: fit-camera: no frame shows a square-wave LED to calibrate the row time from"
+    assert not (tmp_path / "fit").exists()
