@@ -114,3 +114,35 @@ def test_data_frames_at_1080p_are_refused_within_5_s_in_one_line(tmp_path, capsy
     err = capsys.readouterr().err.strip()
     assert err == "rollsim: error: fit-camera: no frame shows a square-wave LED to calibrate the row time from"
     assert not (tmp_path / "fit").exists()
+
+
+# ------------------------------------------------------- the generalisation bench
+
+
+def test_the_bench_draws_renders_fits_and_scores_hidden_cameras():
+    # The CI's small fixed-seed version of `rollsim bench fit-camera` (the
+    # full one: 40 cameras a seed, in docs/fit-camera.md): three cameras up
+    # to 300 rows, two of them with a readable square wave.
+    from rollsim.bench.fit_camera import draw_cameras, format_rows, format_summary, readable, run_bench
+
+    assert draw_cameras(13, 3, 300) == draw_cameras(13, 3, 300)  # the seed fixes the cameras
+    result = run_bench(13, 3, max_height_px=300)
+    rows, summary = result["rows"], result["summary"]
+    assert [r["readable"] for r in rows] == [readable(c)[0] for c in draw_cameras(13, 3, 300)] == [True, False, True]
+    assert summary["counted"] == 2 and summary["cameras"] == 3
+    assert rows[1]["why_not_readable"] and "contrast" in rows[1]["why_not_readable"]
+    fitted = [r for r in rows if r.get("fitted")]
+    assert summary["fitted"] == len(fitted) >= 1
+    for row in fitted:
+        assert abs(row["row_time_error"]) < 0.005
+    text = format_rows(rows) + "\n" + format_summary(summary)
+    assert "not counted" in text and "median fit time" in text
+
+
+def test_a_flat_profile_correlates_with_nothing_and_warns_of_nothing():
+    from rollsim.fit.check import aligned_correlation
+
+    rows = np.arange(200)
+    wave = np.sin(2 * np.pi * rows / 10.0)
+    assert aligned_correlation(wave, np.zeros(200), 10.0) == 0.0  # the suite turns RuntimeWarnings into errors
+    assert aligned_correlation(wave, wave, 10.0) == pytest.approx(1.0)

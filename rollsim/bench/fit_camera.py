@@ -173,6 +173,7 @@ def readable(cam: HiddenCamera) -> tuple[bool, str]:
 
 def run_camera(cam: HiddenCamera) -> dict:
     """Render, fit and compare one hidden camera; its row of the benchmark."""
+    from rollsim.errors import RollsimError
     from rollsim.fit import compare, fit_camera
     from rollsim.render import render_frames
     from rollsim.scene import load_scene
@@ -185,7 +186,7 @@ def run_camera(cam: HiddenCamera) -> dict:
     started = time.perf_counter()
     try:
         fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []))
-    except ValueError as exc:
+    except (ValueError, RollsimError) as exc:  # a refusal (no square wave), or a fault the table shows
         row.update(fitted=False, refusal=str(exc), seconds=time.perf_counter() - started)
         return row
     seconds = time.perf_counter() - started

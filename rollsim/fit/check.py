@@ -35,9 +35,13 @@ def aligned_correlation(a: np.ndarray, b: np.ndarray, period_rows: float, step: 
     rows = np.arange(a.size, dtype=np.float64)
     inner = rows[margin:-margin]
     best = -1.0
+    fixed = a[margin:-margin] - a[margin:-margin].mean()
     for shift in np.arange(-period_rows / 2, period_rows / 2 + step, step):
         moved = np.interp(inner + shift, rows, b)
-        r = float(np.corrcoef(a[margin:-margin], moved)[0, 1])
+        moved = moved - moved.mean()
+        norm = float(np.sqrt(np.sum(fixed**2) * np.sum(moved**2)))
+        # A flat profile correlates with nothing (0, not NaN).
+        r = float(np.sum(fixed * moved)) / norm if norm > 0 else 0.0
         best = max(best, r)
     return best
 
@@ -93,7 +97,7 @@ def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
 
     frames = fit.grey(frames)
     images, _ = render_frames(fit.scene, len(frames))
-    rendered = [np.asarray(im, dtype=np.float64) for im in images]
+    rendered = fit.grey(images)
     rows, cols = fit.band
     period = 2.0 / (fit.scene.link.clock_hz * fit.scene.camera.row_time_s)
     real = [f[rows, cols].mean(axis=1) for f in frames]

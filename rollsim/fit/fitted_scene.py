@@ -22,10 +22,14 @@ MIN_GAMMA_CHANGE = 0.05
 COVER_DIAGONALS = 1.5
 # A frame period this much longer than the readout, where the base scene's is too short.
 FRAME_GAP = 1.01
+# The fitted well holds this many ADC full scales at least.
+FULL_WELL_MARGIN = 1.05
+# The scene model's bounds (rollsim.scene.model), which a fit is held to.
+MAX_AMBIENT_LUX, MAX_INTENSITY_CD, MAX_LED_SIZE_MM = 1e7, 1e7, 1e4
 # The largest OFF level (a fraction of the ON level) the fit sets.
 MAX_OFF_LEVEL = 0.5
 # Effects the fit sets or leaves out; the base scene's others are kept.
-FITTED_EFFECTS = ("tone_curve", "isp_smoothing", "row_noise", "column_fpn", "led_profile", "sharpening", "jpeg",
+FITTED_EFFECTS = ("bayer", "tone_curve", "isp_smoothing", "row_noise", "column_fpn", "led_profile", "sharpening", "jpeg",
                   "glare")
 
 
@@ -71,8 +75,14 @@ def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, 
     return effects
 
 
-def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters, notes: list) -> Scene:
-    """The base scene with the fitted camera, ISP, LED image and ambient light."""
+def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters, notes: list,
+                 colour: bool = False) -> Scene:
+    """The base scene with the fitted camera, ISP, LED image and ambient light.
+
+    ``colour``: the frames were colour; the scene renders them through a
+    Bayer filter and demosaicing (RGGB, the effect's defaults), whose blur
+    and noise the fit then sees as the frames' were seen.
+    """
     from rollsim.optics import led_image_size_px
     from rollsim.optics.scene_light import ambient_electron_rates
     from rollsim.render.tuning import on_level_electrons
@@ -102,14 +112,22 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
         k = 1
     camera.update(binning_rows=k, width_px=shape[1], height_px=shape[0], row_time_us=row_time_s * 1e6,
                   exposure_us=max(exposure_us, 1e-3), iso=min(max(iso, 1.0), 1e7),
-                  read_noise_e=min(p.read_lin / p.k_lin, 1e4), output="gray8")
+                  read_noise_e=min(p.read_lin / p.k_lin, 1e4), output="rgb8" if colour else "gray8")
+    # Frames that clip do so at 255, the ADC's full scale: the well holds at
+    # least that many electrons (a low fitted gain would otherwise clip the
+    # well first, below 255).
+    full_scale_e = 1.0 / p.k_lin
+    if camera["full_well_e"] < FULL_WELL_MARGIN * full_scale_e:
+        camera["full_well_e"] = min(1e7, FULL_WELL_MARGIN * full_scale_e)
     data["link"].update(clock_hz=clock_hz, pattern="square")
     data["effects"] = _effects(data.get("effects", {}), p, gamma, smoothing, m.profile)
+    if colour:
+        data["effects"]["bayer"] = {"pattern": "RGGB"}
     x, y, diameter = led_disk_px(m, shape)
     data["led"]["position_px"] = [x, y]
     data["led"]["shape"] = "disk"
     sized = scene_from_dict(data, "fitted scene")
-    data["led"]["size_mm"] = sized.led.size_mm * diameter / led_image_size_px(sized)
+    data["led"]["size_mm"] = min(MAX_LED_SIZE_MM, sized.led.size_mm * diameter / led_image_size_px(sized))
 
     # Ambient light from the background's linear level, or (no background)
     # from the OFF rows: the ambient light on the LED's face.
@@ -122,14 +140,18 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     else:
         wanted, rate = p.off_lin / k_lin, face_rate
     if rate > 0:
-        data["environment"]["ambient_lux"] = sized.environment.ambient_lux * wanted / (rate * exposure_s)
+        lux = sized.environment.ambient_lux * wanted / (rate * exposure_s)
+        if lux > MAX_AMBIENT_LUX:
+            notes.append(f"the ambient light is capped at {MAX_AMBIENT_LUX:g} lx (the frames ask {lux:.3g} lx)")
+        data["environment"]["ambient_lux"] = min(lux, MAX_AMBIENT_LUX)
     sized = scene_from_dict(data, "fitted scene")
     # The linear ON level over the LED's rows; the intensity is linear in it.
     on_e = p.on_lin / k_lin
     led_e = on_level_electrons(sized) - (ambient_electron_rates(sized)[1] * exposure_s)
     face_e = on_level_electrons(sized) - led_e
     if led_e > 0 and on_e > face_e:
-        data["led"]["luminous_intensity_cd"] = sized.led.luminous_intensity_cd * (on_e - face_e) / led_e
+        data["led"]["luminous_intensity_cd"] = min(MAX_INTENSITY_CD,
+                                                   sized.led.luminous_intensity_cd * (on_e - face_e) / led_e)
         # OFF rows above the ambient light on the LED's face (an LED never
         # fully off, or glare from the ON rows around them): the LED's OFF level.
         off_e = p.off_lin / k_lin

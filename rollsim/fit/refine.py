@@ -37,11 +37,7 @@ class CameraFit:
 
     def grey(self, frames: Sequence[np.ndarray]) -> list[np.ndarray]:
         """``frames`` as the fit saw them (the chosen plane of colour frames), float64."""
-        from rollsim.fit.channel import candidate_planes
-
-        if self.channel == "grey":
-            return [np.asarray(f, dtype=np.float64) for f in frames]
-        return [candidate_planes(f)[self.channel] for f in frames]
+        return as_fitted(frames, self.channel)
 
     @property
     def band(self) -> tuple[slice, slice]:
@@ -122,11 +118,11 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
     params, noise = direct(target, base)
     notes: list[str] = []
-    scene = fitted_scene(base, shape, clock_hz, target, params, notes)
+    scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=channel != "grey")
     best = None
     for k in range(iterations + 1):
         images, _ = render_frames(scene, len(frames))
-        rendered = measure([np.asarray(im, dtype=np.float64) for im in images], clock_hz,
+        rendered = measure(as_fitted(images, channel), clock_hz,
                            row_time=(scene.camera.row_time_s, 0.0), region=target.region, start=target.stripes)
         score = mismatch(target, rendered, params.gamma)
         if best is None or score < best[0]:
@@ -135,12 +131,21 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             break
         params = corrected(params, noise, target, rendered)
         notes = []
-        scene = fitted_scene(base, shape, clock_hz, target, params, notes)
+        scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=channel != "grey")
         say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
             f"(mismatch of the last {score:.3g})")
     assert best is not None  # the loop runs at least once
     _, params, scene, notes = best
     return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes, channel)
+
+
+def as_fitted(images, channel: str) -> list[np.ndarray]:
+    """Rendered frames as the fit sees the frames: grey, or the colour frames' chosen plane."""
+    from rollsim.fit.channel import candidate_planes
+
+    if channel == "grey":
+        return [np.asarray(im, dtype=np.float64) for im in images]
+    return [candidate_planes(np.asarray(im))[channel] for im in images]
 
 
 def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
@@ -166,14 +171,20 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
     cam = scene.camera
     t_row_us = m.row_time_s * 1e6
     unc = m.stripes.uncertainties
-    no_background = "no background: the LED fills the frame" if m.region.block is None else (
-        "the background is clipped at black" if m.background is not None and not unclipped(np.array([m.background]))[0]
-        else None)
+    if m.region.disk is None:
+        no_background = "no background: the LED fills the frame"
+    elif m.region.block is None:
+        no_background = "no background clear of the LED's halo"
+    elif m.background is not None and not unclipped(np.array([m.background]))[0]:
+        no_background = "the background is clipped at black"
+    else:
+        no_background = "the background is clipped at full scale"
     out = {
         "row_time_us": Estimate(t_row_us, m.row_time_sd_s * 1e6, "us", "stripe period of the square wave"),
         "exposure_us": Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
                                 "width of the box that rounds the stripes' edges (ramps between clipped plateaus "
-                                "and the OFF runs' widths when saturated), refined by rendering"),
+                                "and the OFF runs' widths when saturated); whole periods and the reflection E <-> "
+                                "P - E chosen by the OFF level; refined by rendering"),
         "isp_smoothing_rows": Estimate(p.smoothing_rows, unc.get("smoothing_rows"), "rows",
                                        "sigma of the ISP's vertical Gaussian, from the edges' shape"),
         "tone_gamma": Estimate(p.gamma, unc.get("gamma"), "", "gamma of the tone curve v^(1/gamma), from the edges"),
@@ -196,14 +207,14 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         else:
             effect = getattr(base.effects, name.rsplit("_", 1)[0], None)
             std = float(getattr(effect, "std_e", 0.0) or 0.0)
-            out[name] = Estimate(std, None, "e-", how, NOT_IDENTIFIED, no_background or "no background")
+            out[name] = Estimate(std, None, "e-", how, NOT_IDENTIFIED, no_background)
     if m.background is not None:
         out["background_level"] = Estimate(m.background, None, "8-bit", "median of the background block's mean")
         out["temporal_noise_background"] = Estimate(m.background_noise.pixel_std if m.background_noise else 0.0,
                                                     None, "8-bit", "frame differences over sqrt 2, background")
-    else:
-        out["ambient_lux"] = Estimate(scene.environment.ambient_lux, None, "lx", "from the OFF rows' level "
-                                      "(the ambient light on the LED's face)", FRAMES)
+    out["ambient_lux"] = Estimate(scene.environment.ambient_lux, None, "lx",
+                                  "from the background's level" if m.background is not None else
+                                  "from the OFF rows' level (the ambient light on the LED's face)")
     out["binning_rows"] = Estimate(float(scene.camera.binning_rows), None, "rows",
                                    "rows in groups of near-identical values (binned readout)")
     out.update(led_geometry(m, scene))
