@@ -404,9 +404,9 @@ def cmd_fit_camera(args) -> int:
     try:
         fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
                          progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True))
+        comparison = compare(frames, fit)
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
-    comparison = compare(frames, fit)
     write_files_into(out, {str(k): v for k, v in fit_outputs(out, fit, comparison, args.clock_hz,
                                                              [str(p) for p in paths]).items()}, force=args.force)
     est = fit.estimates

@@ -445,7 +445,9 @@ def frame_weights(setup: SceneSetup, truth_record: dict, rows) -> ExposureWeight
     row_time_s = _positive(truth_record["row_time_s"], "row_time_s")
     exposure_s = _positive(truth_record["exposure_s"], "exposure_s")
     waveform = setup.transmitter.waveform
-    starts_s = float(truth_record["start_s"]) + np.asarray(rows, dtype=np.float64) * row_time_s
+    rows = np.asarray(rows, dtype=np.int64)
+    k = int(truth_record.get("binning_rows", 1))  # a binned group's rows start with its first
+    starts_s = float(truth_record["start_s"]) + (rows - rows % k).astype(np.float64) * row_time_s
     chip, frac = waveform.chip_position(starts_s)
     return exposure_weights(chip, frac, exposure_s * waveform.clock_hz)
 

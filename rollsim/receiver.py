@@ -64,7 +64,8 @@ class MessageReception:
 
 def _read_by_s(record: dict, truth: dict) -> float:
     """When the camera has read a decoded PHY-SDU: the end of its last row's exposure, s."""
-    return truth["start_s"] + float(record["last_row"]) * truth["row_time_s"] + truth["exposure_s"]
+    last, k = int(record["last_row"]), int(truth.get("binning_rows", 1))  # a binned group starts with its first row
+    return truth["start_s"] + float(last - last % k) * truth["row_time_s"] + truth["exposure_s"]
 
 
 def _payload_bits(records: list[dict], payload_bits: int) -> np.ndarray:

@@ -150,3 +150,16 @@ def test_a_flat_profile_correlates_with_nothing_and_warns_of_nothing():
     wave = np.sin(2 * np.pi * rows / 10.0)
     assert aligned_correlation(wave, np.zeros(200), 10.0) == 0.0  # the suite turns RuntimeWarnings into errors
     assert aligned_correlation(wave, wave, 10.0) == pytest.approx(1.0)
+
+
+def test_an_exposure_longer_than_the_gap_between_frames_is_kept():
+    # 864 rows of 40 us read out in 34.6 ms, longer than the base scene's
+    # 33.3 ms frame: the fitted frame rate is lowered, and the 600 us
+    # exposure kept whole (it was once cut to the 1 % gap, to 346 us).
+    crop = ["camera.width_px=16", "camera.height_px=864", "camera.row_time_us=40", "camera.exposure_us=600",
+            "camera.frame_rate_hz=25", "link.clock_hz=2000", "led.size_mm=200", "camera.iso=800",
+            "led.luminous_intensity_cd=3"]
+    hidden, fit = _fit(BASE, crop)
+    _check_times(hidden, fit, 0.10)
+    assert fit.scene.camera.exposure_s <= fit.scene.camera.frame_period_s
+    assert any("frame rate is lowered" in note for note in fit.notes)

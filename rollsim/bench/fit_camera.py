@@ -5,7 +5,7 @@ span (:func:`draw_cameras`); each renders square-wave frames, which
 :func:`rollsim.fit.fit_camera` fits (base scene ``paper-geometric``, as the
 command's default), and the fit is compared with the hidden truth and
 rendered beside the frames. A camera whose frames hold no readable square
-wave (:func:`readable`: under three stripe periods on the LED, or under
+wave (:func:`readable`: under four stripe periods on the LED, or under
 :data:`MIN_CONTRAST_8BIT` levels of stripe contrast once clipped) is listed
 and not counted.
 
@@ -186,11 +186,14 @@ def run_camera(cam: HiddenCamera) -> dict:
     started = time.perf_counter()
     try:
         fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []))
+        seconds = time.perf_counter() - started
+        comparison = compare(frames, fit)
     except (ValueError, RollsimError) as exc:  # a refusal (no square wave), or a fault the table shows
         row.update(fitted=False, refusal=str(exc), seconds=time.perf_counter() - started)
         return row
-    seconds = time.perf_counter() - started
-    comparison = compare(frames, fit)
+    except Exception as exc:  # noqa: BLE001 - one camera's fault must not end the benchmark; it is shown
+        row.update(fitted=False, refusal=f"fault: {type(exc).__name__}: {exc}", seconds=time.perf_counter() - started)
+        return row
     est = fit.estimates
     noise = comparison.noise.get("temporal_led_bright", (0.0, 0.0))
     row.update(

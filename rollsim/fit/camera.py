@@ -124,7 +124,7 @@ def radial_profile_from_knots(stripes: StripeFit, region: LedRegion) -> list | N
     centres = 0.5 * (edges[:-1] + edges[1:])
     order = np.argsort(x)
     rel = np.interp(centres, x[order], on[order] / on.max())
-    if np.ptp(rel) < PROFILE_MIN_VARIATION:
+    if np.ptp(rel) < PROFILE_MIN_VARIATION or not rel[0] > 0:
         return None
     radii = np.concatenate([[0.0], centres, [1.0]])
     values = np.concatenate([[rel[0]], rel, [rel[-1]]]) / rel[0]

@@ -96,20 +96,23 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     smoothing = p.smoothing_rows if p.smoothing_rows >= MIN_SMOOTHING_ROWS else 0.0
     iso = base.camera.iso * p.k_lin / gain_per_full_scale(base)  # the gain is proportional to the ISO
     # Stills do not show the frame rate: the base scene's, unless the rows
-    # read out take longer (then the readout's, and a 1 % gap).
+    # read out, or the exposure, take longer than its frame period (then
+    # the longer of the two, the readout with a 1 % gap).
     readout_s = shape[0] * row_time_s
-    if readout_s * FRAME_GAP > 1.0 / camera["frame_rate_hz"]:
-        camera["frame_rate_hz"] = 1.0 / (readout_s * FRAME_GAP)
-        notes.append(f"the frame rate is lowered to {camera['frame_rate_hz']:.4g} Hz so that the rows fit a frame")
-    frame_period_s = 1.0 / camera["frame_rate_hz"]
-    exposure_us = min(p.exposure_rows * row_time_s, frame_period_s - shape[0] * row_time_s) * 1e6
-    if exposure_us < p.exposure_rows * row_time_s * 1e6:
-        notes.append("the exposure is cut to what the base scene's frame rate leaves")
-    k = m.binning[0]
+    exposure_s = p.exposure_rows * row_time_s
+    needed_s = max(readout_s * FRAME_GAP, exposure_s)
+    if needed_s > 1.0 / camera["frame_rate_hz"]:
+        camera["frame_rate_hz"] = 1.0 / needed_s
+        notes.append(f"the frame rate is lowered to {camera['frame_rate_hz']:.4g} Hz so that the rows and the "
+                     "exposure fit a frame")
+    exposure_us = exposure_s * 1e6
+    k, offset = m.binning
     if shape[0] % k:
         notes.append(f"rows come in groups of {k} (binned readout), but {k} does not divide the height: "
                      "rendered unbinned")
         k = 1
+    elif offset:
+        notes.append(f"rows come in groups of {k} starting at row {offset}; rendered with groups from row 0")
     camera.update(binning_rows=k, width_px=shape[1], height_px=shape[0], row_time_us=row_time_s * 1e6,
                   exposure_us=max(exposure_us, 1e-3), iso=min(max(iso, 1.0), 1e7),
                   read_noise_e=min(p.read_lin / p.k_lin, 1e4), output="rgb8" if colour else "gray8")

@@ -21,7 +21,6 @@ from rollsim.fit.channel import choose_channel
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
     anchor_variance, corrected, direct, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
-from rollsim.fit.noise import unclipped
 from rollsim.scene.model import Scene
 
 
@@ -175,7 +174,7 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         no_background = "no background: the LED fills the frame"
     elif m.region.block is None:
         no_background = "no background clear of the LED's halo"
-    elif m.background is not None and not unclipped(np.array([m.background]))[0]:
+    elif m.background is not None and m.background < 128:
         no_background = "the background is clipped at black"
     else:
         no_background = "the background is clipped at full scale"

@@ -58,6 +58,8 @@ def frame_truth(setup: SceneSetup, index: int, start_s: float, led_rows=None) ->
         "led_rows": list(led_rows) if led_rows else None,
         "sdus": [],
     }
+    if timing.binning_rows > 1:  # written only when binned, so unbinned truth files keep their bytes
+        record["binning_rows"] = int(timing.binning_rows)
     emissions = tx.emissions_between(start_s, span_end)
     if emissions.size == 0:
         return record
