@@ -189,6 +189,12 @@ def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: 
     return bool(np.mean(np.abs(sums - period_rows) <= tolerance) >= MIN_TYPICAL_RUNS)
 
 
+def without_envelope(values: np.ndarray, period_rows: float) -> np.ndarray:
+    """A row profile less its mean over one stripe period (the LED's slow envelope), float64."""
+    values = np.asarray(values, dtype=np.float64)
+    return values - uniform_filter1d(values, max(2, int(round(period_rows))), mode="nearest")
+
+
 def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: float) -> bool:
     """Whether a row profile repeats at ``period_rows`` as one square wave.
 
@@ -207,11 +213,10 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
     period_rows : float
         The period, rows.
     """
-    values = np.asarray(values, dtype=np.float64)
-    n = values.size
+    n = np.size(values)
     if not (period_rows > 0 and n >= 3 * period_rows):
         return False
-    detrended = values - uniform_filter1d(values, max(2, int(round(period_rows))), mode="nearest")
+    detrended = without_envelope(values, period_rows)
     bins = max(3, int(np.ceil(period_rows)))
     index = np.minimum((np.mod(np.arange(n), period_rows) / period_rows * bins).astype(np.intp), bins - 1)
     counts = np.bincount(index, minlength=bins)
@@ -259,12 +264,11 @@ def one_peak_per_period(values: np.ndarray, noise: np.ndarray, period_rows: floa
     """
     from scipy.signal import find_peaks
 
-    values = np.asarray(values, dtype=np.float64)
-    detrended = values - uniform_filter1d(values, max(2, int(round(period_rows))), mode="nearest")
+    detrended = without_envelope(values, period_rows)
     low, high = np.percentile(detrended, [5, 95])
     sigma = float(np.median(np.asarray(noise, dtype=np.float64))) if np.size(noise) else 0.0
     prominence = max(PEAK_PROMINENCE * float(high - low), PEAK_NOISE_SIGMAS * sigma, 1e-9)
-    allowed = MAX_PEAKS_PER_PERIOD * values.size / period_rows + 1
+    allowed = MAX_PEAKS_PER_PERIOD * detrended.size / period_rows + 1
     peaks, _ = find_peaks(detrended, prominence=prominence)
     valleys, _ = find_peaks(-detrended, prominence=prominence)
     return peaks.size <= allowed and valleys.size <= allowed

@@ -8,7 +8,8 @@ import pytest
 
 from rollsim.fit import fit_camera
 from rollsim.fit.measure import detect_binning
-from rollsim.fit.stripes import levels_for_whole_periods, reflected_levels, stripe_profile
+from rollsim.fit.stripes import box_level_range, levels_for_whole_periods, reflected_levels, square_wave_box, \
+    stripe_profile
 from rollsim.render import render_frames
 from rollsim.scene import load_scene
 
@@ -87,6 +88,15 @@ def test_an_exposure_and_its_reflection_make_the_same_stripes_half_a_period_apar
     shifted = [np.abs(stripe_profile(rows, period, phase, exposure, 0.0, 1.0, on, off) - base).max()
                for phase in 1.3 + np.arange(0.0, period, 0.5)]
     assert min(shifted) < 1e-9
+
+
+@pytest.mark.parametrize("exposure_chips", [0.3, 1.0, 1.4, 2.0, 2.7, 3.35, 4.0])
+def test_the_box_level_range_is_the_box_averages_extremes(exposure_chips):
+    # P = 40 rows a period (20 a chip), sampled every 0.01 row over one period.
+    rows, period = np.arange(0.0, 40.0, 0.01), 40.0
+    w = square_wave_box(rows, period, 0.0, exposure_chips * period / 2)
+    least, most = box_level_range(exposure_chips)
+    assert w.min() == pytest.approx(least, abs=1e-3) and w.max() == pytest.approx(most, abs=1e-3)
 
 
 def test_binning_is_detected_from_identical_row_groups():

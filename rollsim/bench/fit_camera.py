@@ -27,6 +27,7 @@ from typing import Sequence
 
 import numpy as np
 
+from rollsim.fit.stripes import box_level_range
 from rollsim.text_tables import format_table
 
 BASE_SCENE = "paper-geometric"
@@ -154,17 +155,14 @@ def hidden_scene(cam: HiddenCamera):
 def readable(cam: HiddenCamera) -> tuple[bool, str]:
     """Whether the hidden camera's frames hold a readable square wave, by the physics, and why not.
 
-    A box of E chips over the wave (period 2 chips) spans k = ⌊E/2⌋ periods
-    and r = E − 2k chips more: a row's level runs from on·(k + max(0, r −
-    1))/E to on·(k + min(r, 1))/E, each clipped at full scale.
+    A row's level runs over the ON level times
+    :func:`rollsim.fit.stripes.box_level_range`, each end clipped at full scale.
     """
     led_rows = min(cam.led_diameter_px, cam.height_px)
     if led_rows < MIN_PERIODS * cam.period_rows:
         return False, f"the LED spans {led_rows / cam.period_rows:.1f} stripe periods (< {MIN_PERIODS:g})"
-    e = cam.exposure_chips
-    whole, rest = math.floor(e / 2), e - 2 * math.floor(e / 2)
-    low = cam.on_full_scales * (whole + max(0.0, rest - 1.0)) / e
-    high = cam.on_full_scales * (whole + min(rest, 1.0)) / e
+    least, most = box_level_range(cam.exposure_chips)
+    low, high = cam.on_full_scales * least, cam.on_full_scales * most
     contrast = 255.0 * (min(high, 1.0) - min(low, 1.0))
     if contrast < MIN_CONTRAST_8BIT:
         return False, f"stripe contrast {contrast:.1f} of 255 once clipped (< {MIN_CONTRAST_8BIT:g})"

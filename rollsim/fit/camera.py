@@ -2,8 +2,9 @@
 
 :func:`measure` runs the estimators in the order each needs the last:
 
-1. the row time, from the stripe period (:func:`decoder.estimate_row_time`):
-   the one statistic without which nothing is fitted;
+1. the row time, from the stripe period (:func:`decoder.estimate_row_time`,
+   run first by :func:`rollsim.fit.refine.fit_camera`): the one statistic
+   without which nothing is fitted;
 2. the LED's region (:func:`rollsim.fit.measure.find_led_region`): its disk,
    or that it fills the frame, and a background block when there is one;
 3. the exposure, the ISP's vertical smoothing, the tone curve's γ and the
@@ -156,19 +157,16 @@ class Measured:
     stripes_period_rows: float  # the stripe period the stripes were fitted with
 
 
-def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float] | None = None,
+def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float],
             region: LedRegion | None = None, start: StripeFit | None = None) -> Measured:
     """The fit's statistics of a set of frames (see the module docstring, steps 1–5).
 
-    ``row_time`` (s, s) and ``region`` skip their estimation (rendered frames
-    of a fit are measured where the frames were); ``start`` starts the
-    stripe fit from an earlier one.
+    ``row_time`` is the row time and its uncertainty (s, s), estimated first
+    (:func:`rollsim.fit.refine.fit_camera`: the cheap check). ``region``
+    skips its estimation (rendered frames of a fit are measured where the
+    frames were); ``start`` starts the stripe fit from an earlier one.
     """
-    from decoder import estimate_row_time
-
     shape = frames[0].shape
-    if row_time is None:
-        row_time = estimate_row_time([np.clip(np.rint(f), 0, 255).astype(np.uint8) for f in frames], clock_hz)
     row_time_s, row_time_sd = row_time
     period = 2.0 / (clock_hz * row_time_s)
     brightest = np.max(frames, axis=0)
@@ -185,7 +183,7 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
         block = region.block
         background = float(np.median(mean_frame[block]))
         bg_noise = temporal_noise(frames, *block)
-        if unclipped(np.array([background]))[0]:
+        if bool(unclipped(background)):
             row_noise = bg_noise.row_std
             column = column_pattern_std(mean_frame, *block, len(frames), bg_noise.pixel_std)
     keep = unclipped(levels)
@@ -240,7 +238,7 @@ class Anchor:
 
 def usable_background(m: Measured) -> tuple[float, TemporalNoise] | None:
     """The background's level and noise when it is clear of both clips (its noise intact), else None."""
-    if m.background is None or m.background_noise is None or not unclipped(np.array([m.background]))[0]:
+    if m.background is None or m.background_noise is None or not bool(unclipped(m.background)):
         return None
     return m.background, m.background_noise
 
@@ -351,6 +349,11 @@ def direct(m: Measured, base: Scene) -> tuple[Parameters, NoiseFit]:
                       noise.read_lin, row_lin, col_lin), noise
 
 
+def level_ratio(x: float | None, y: float | None) -> float:
+    """x / y of two positive statistics; 1 (no change) when either is missing or not positive."""
+    return x / y if x is not None and y is not None and y > 0 and x > 0 else 1.0
+
+
 def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measured) -> Parameters:
     """One step of indirect inference: move each parameter by what separates the
     frames' statistic from the same statistic of frames rendered with ``p``.
@@ -362,14 +365,11 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
     variance at each anchor level scales by the ratio of the two measured
     there; with one anchor the read noise (in electrons) is kept.
     """
-    def ratio(x, y):
-        return x / y if x is not None and y is not None and y > 0 and x > 0 else 1.0
-
     t, r = target.stripes, rendered.stripes
     a, b = p.read_lin**2, p.k_lin
     scaled = []
     for anchor in noise_anchors(target, p.gamma):
-        rate = ratio(anchor_variance(target, anchor), anchor_variance(rendered, anchor))
+        rate = level_ratio(anchor_variance(target, anchor), anchor_variance(rendered, anchor))
         u = float(linear_level(anchor.level, p.gamma))
         scaled.append((u, rate * (a + b * u)))
     if noise.read_source == FRAMES and len(scaled) == 2 and scaled[1][0] > scaled[0][0]:
@@ -390,10 +390,10 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
         exposure_rows=max(0.05, p.exposure_rows + t.exposure_rows - r.exposure_rows),
         smoothing_rows=max(0.0, p.smoothing_rows + t.smoothing_rows - r.smoothing_rows),
         gamma=min(MAX_GAMMA, max(MIN_GAMMA, p.gamma + t.gamma - r.gamma)),
-        on_lin=min(60.0, p.on_lin * ratio(t.on, r.on)),
-        off_lin=p.off_lin * ratio(t.off, r.off),
+        on_lin=min(60.0, p.on_lin * level_ratio(t.on, r.on)),
+        off_lin=p.off_lin * level_ratio(t.off, r.off),
         k_lin=b_new,
         read_lin=math.sqrt(a_new),
-        row_lin=None if p.row_lin is None else p.row_lin * ratio(target.row_noise, rendered.row_noise),
-        col_lin=None if p.col_lin is None else p.col_lin * ratio(target.column_pattern, rendered.column_pattern),
+        row_lin=None if p.row_lin is None else p.row_lin * level_ratio(target.row_noise, rendered.row_noise),
+        col_lin=None if p.col_lin is None else p.col_lin * level_ratio(target.column_pattern, rendered.column_pattern),
     )

@@ -21,8 +21,6 @@ def bright_rows_noise(levels: np.ndarray, variances: np.ndarray) -> float:
     return float(np.sqrt(np.mean(variances[top])))
 
 
-
-
 def aligned_correlation(a: np.ndarray, b: np.ndarray, period_rows: float, step: float = 0.1) -> float:
     """Pearson correlation of two row profiles, ``b`` shifted by the best fraction of a
     stripe period in [−P/2, P/2] (a free-running camera's stripes sit at any phase).

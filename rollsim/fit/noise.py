@@ -50,8 +50,8 @@ def noise_gain(sigma_rows: float) -> float:
     return float(np.sum(kernel**2))
 
 
-def unclipped(levels: np.ndarray) -> np.ndarray:
-    """Which 8-bit levels are clear of both clips (:data:`CLIP_MARGIN`)."""
+def unclipped(levels: float | np.ndarray) -> np.ndarray:
+    """Which 8-bit levels (an array, or one level: a 0-d array) are clear of both clips (:data:`CLIP_MARGIN`)."""
     levels = np.asarray(levels, dtype=np.float64)
     return (levels > CLIP_MARGIN) & (levels < 255 - CLIP_MARGIN)
 

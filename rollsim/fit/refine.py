@@ -19,7 +19,7 @@ import numpy as np
 
 from rollsim.fit.channel import choose_channel
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
-    anchor_variance, corrected, direct, measure, noise_anchors
+    anchor_variance, corrected, direct, level_ratio, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
@@ -50,8 +50,6 @@ class CameraFit:
 
     def to_json(self) -> dict:
         return {name: e.to_json() for name, e in self.estimates.items()}
-
-
 
 
 def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, iterations: int = 4,
@@ -105,19 +103,19 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         raise ValueError("the frames must all be grey or all RGB images of one size")
     # The cheap check first: without a square wave nothing is fitted.
     row_time = estimate_row_time([np.clip(np.rint(f), 0, 255).astype(np.uint8) for f in frames], clock_hz)
-    channel = "grey"
-    if len(shape) == 3:
+    colour = len(shape) == 3
+    if colour:
         channel, frames = choose_channel(frames, 2.0 / (clock_hz * row_time[0]))
         shape = shape[:2]
     else:
-        frames = [f.astype(np.float64) for f in frames]
+        channel, frames = "grey", as_fitted(frames, "grey")
     say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px ({channel}); "
         "fitting the stripes and the noise")
     target = measure(frames, clock_hz, row_time=row_time)
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
     params, noise = direct(target, base)
     notes: list[str] = []
-    scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=channel != "grey")
+    scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=colour)
     best = None
     for k in range(iterations + 1):
         images, _ = render_frames(scene, len(frames))
@@ -130,7 +128,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             break
         params = corrected(params, noise, target, rendered)
         notes = []
-        scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=channel != "grey")
+        scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=colour)
         say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
             f"(mismatch of the last {score:.3g})")
     assert best is not None  # the loop runs at least once
@@ -154,7 +152,7 @@ def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
     The refinement keeps the round with the least (it never ends worse than
     it began, as measured)."""
     def log_ratio(x, y):
-        return math.log(x / y) if x is not None and y is not None and x > 0 and y > 0 else 0.0
+        return math.log(level_ratio(x, y))
 
     t, r = target.stripes, rendered.stripes
     scale = max(1.0, t.exposure_rows)  # rows

@@ -55,6 +55,18 @@ def square_wave_box(rows: np.ndarray, period_rows: float, phase_rows: float, exp
     return (_square_integral(t, period_rows) - _square_integral(t - exposure_rows, period_rows)) / exposure_rows
 
 
+def box_level_range(exposure_chips: float) -> tuple[float, float]:
+    """The least and greatest fraction ON over a box of ``exposure_chips`` chips
+    on the square pattern (ON one chip, OFF the next).
+
+    The box spans k = ⌊E/2⌋ whole periods (k chips ON) and r = E − 2k chips
+    more, of which between max(0, r − 1) and min(r, 1) are ON.
+    """
+    whole = math.floor(exposure_chips / 2)
+    rest = exposure_chips - 2 * whole
+    return (whole + max(0.0, rest - 1.0)) / exposure_chips, (whole + min(rest, 1.0)) / exposure_chips
+
+
 def _smoothed(values: np.ndarray, sigma_rows: float) -> np.ndarray:
     """``values`` smoothed by the ISP's Gaussian (mirrored ends, as :func:`rollsim.isp.smooth`)."""
     if sigma_rows <= 0.05:

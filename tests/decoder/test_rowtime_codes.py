@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from synth import profile_from_chips
 
 from decoder import RowTimeError, estimate_row_time
+from rollsim.fit.stripes import box_level_range
 
 # The family's ranges, in rows.
 ON_ROWS = (3, 40)
@@ -119,12 +120,10 @@ def square_frames(seed: int, layout: str, n: int = 3) -> tuple[list[np.ndarray],
     whether they hold stripes at all.
 
     1.5 to 20 rows a chip, exposure 0.2 to 4 chips, the ON level 0.3 to 30
-    full scales (clipped), a tone curve, blur and noise. A box of E chips
-    over the wave (period 2) spans k = ⌊E/2⌋ whole periods and r = E − 2k
-    chips more: the row's level runs from on·(k + max(0, r − 1))/E to
-    on·(k + min(r, 1))/E. The frames hold stripes when the lower bound is
-    below 0.9 full scale and the two, clipped at full scale, differ by 5 %
-    of it.
+    full scales (clipped), a tone curve, blur and noise. A row's level runs
+    over off + on × :func:`rollsim.fit.stripes.box_level_range`; the frames
+    hold stripes when the lower bound is below 0.9 full scale and the two,
+    clipped at full scale, differ by 5 % of it.
     """
     rng = np.random.default_rng(seed)
     rows, cols = int(rng.integers(300, 1081)), int(rng.integers(16, 161))
@@ -133,9 +132,8 @@ def square_frames(seed: int, layout: str, n: int = 3) -> tuple[list[np.ndarray],
     on_full_scales, off = float(np.exp(rng.uniform(np.log(0.3), np.log(30.0)))), float(rng.uniform(0.0, 0.2))
     gamma, blur_rows, noise = float(rng.choice([1.0, 2.2])), float(rng.uniform(0.0, 1.0)), float(rng.uniform(0, 4))
     weights = rng.dirichlet([1.0, 1.0, 1.0]) + 0.2 if layout == "colour" else None
-    whole, rest = np.floor(exposure_chips / 2), exposure_chips - 2 * np.floor(exposure_chips / 2)
-    low = off + on_full_scales * (whole + max(0.0, rest - 1.0)) / exposure_chips
-    high = off + on_full_scales * (whole + min(rest, 1.0)) / exposure_chips
+    least, most = box_level_range(exposure_chips)
+    low, high = off + on_full_scales * least, off + on_full_scales * most
     readable = bool(low < 0.9 and min(high, 1.0) - min(low, 1.0) > 0.05)
     chips = np.tile([1.0, 0.0], rows)
     frames = []
