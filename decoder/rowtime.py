@@ -28,6 +28,7 @@ from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
 from decoder.region import block_means, choose_factor, detect_regions
+from decoder.stripe_region import region_profile, stripe_region
 from decoder.pitch import grid_regression, peak_period_rows
 from decoder.timing import find_runs
 
@@ -74,6 +75,9 @@ MAX_PERIOD_MISMATCH = 0.55
 PEAK_PROMINENCE = 0.25
 PEAK_NOISE_SIGMAS = 4.0
 MAX_PEAKS_PER_PERIOD = 1.25
+# Frames from which the stripes' region is found (decoder.stripe_region):
+# a dozen give its blocks' products a standard error small enough.
+REGION_FRAMES = 12
 
 
 class RowTimeError(ValueError):
@@ -301,6 +305,10 @@ def profile_period_rows(profile: RowProfile) -> tuple[float, float, int] | None:
     return edge_period_rows(profile, first[0])
 
 
+def _load(item):
+    return read_frame(item) if isinstance(item, (str, os.PathLike)) else item
+
+
 def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
     """Row time from frames of an LED sending a chip-rate square wave.
 
@@ -330,11 +338,24 @@ def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
     """
     if not clock_hz > 0:
         raise ValueError(f"clock_hz must be > 0, got {clock_hz}")
-    periods, errors = [], []
-    for item in frames:
-        image = read_frame(item) if isinstance(item, (str, os.PathLike)) else item
+    items = list(frames)
+    region = None
+    first = [_load(item) for item in items[:REGION_FRAMES]]
+    if len(first) > 1 and len({np.shape(image) for image in first}) == 1:
         try:
-            found = frame_period_rows(image)
+            region = stripe_region(first)
+        except FrameError:
+            region = None
+    del first
+    periods, errors = [], []
+    for item in items:  # files read one at a time: memory stays flat in their number
+        image = _load(item)
+        try:
+            # The stripes' own region first; the brightest region where the
+            # frames gave none, or its profile no square wave.
+            found = profile_period_rows(region_profile(image, region)) if region is not None else None
+            if found is None:
+                found = frame_period_rows(image)
         except FrameError:
             found = None
         if found is not None:

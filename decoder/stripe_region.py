@@ -1,0 +1,233 @@
+"""Where a sequence's stripes are: the pixels that change between frames, alike along rows.
+
+A still camera watching a still LED sees the same background, the same
+disk edges, halo and vignetting in every frame; only the stripes move (the
+LED's waveform starts at another phase in each frame, unless the frame
+period is a whole number of the waveform's periods). So each frame less the
+sequence's mean holds the stripes and noise, and nothing else. Stripes are
+the same all along a row of the LED, noise is not: the product of a pixel's
+residual and that of the pixel :data:`COLUMN_LAG` columns away has mean zero
+for noise (whatever its level, tone curve or demosaicing, whose correlations
+reach a pixel or two) and the stripes' variance on the LED. Averaged over
+blocks of pixels, the blocks whose mean product is significant form the LED.
+
+This finds a small LED in a large frame, a faint one on a bright or noisy
+background, and the channel that carries it, where a brightness threshold
+cannot; and it bounds the rows to those the stripes cover, leaving out the
+disk's ends and the background, whose envelope would be read as stripes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from decoder.io import as_frame_array
+from decoder.profile import RowProfile
+
+# Columns between the two pixels of a product: beyond the reach of
+# demosaicing and of the noise a tone curve or a JPEG block shares, odd so
+# that it pairs Bayer sites of both kinds.
+COLUMN_LAG = 9
+# Blocks of pixels (rows × columns) over which the products are averaged.
+BLOCK_PX = 16
+# A block is the stripes' when its mean product exceeds this many of its
+# standard errors (a quarter of its pixels counted as independent: rows
+# within a stripe move together).
+MIN_SIGNIFICANCE = 4.0
+# Columns of the two halves set against each other to measure the profile's
+# noise: groups wider than demosaicing's and JPEG's reach.
+NOISE_GROUP_COLS = 8
+# Least fraction of the LED's block columns holding stripes in a block row
+# for its rows to be read.
+MIN_ROW_SPAN = 0.5
+# Least fraction of the stripes' rows, first to last, that those rows must be.
+MIN_ROWS_KEPT = 0.75
+
+
+@dataclass(frozen=True)
+class StripeRegion:
+    """The rows, column weights and channel of a sequence's stripes.
+
+    Attributes
+    ----------
+    rows : slice
+        Frame rows the stripes cover.
+    column_weights : ndarray of float64, shape (width,)
+        Weight of each frame column in the row profile (the stripes'
+        amplitude in it: a matched filter); zero off the LED.
+    channel : int or None
+        Channel of a colour frame carrying the stripes best (0 R, 1 G, 2 B),
+        None for grey frames.
+    block_mask : ndarray of bool, shape (rows // BLOCK_PX, width // block_cols), optional
+        The blocks of ``rows`` holding stripes: a row's mean is over the
+        weighted columns of its blocks only (a disk's chord, not the
+        background beside it). None: every weighted column.
+    block_cols : int
+        Columns of a block.
+    """
+
+    rows: slice
+    column_weights: np.ndarray
+    channel: int | None
+    block_mask: np.ndarray | None = None
+    block_cols: int = BLOCK_PX
+
+
+def _block_means(a: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    h, w = a.shape[0] // rows, a.shape[1] // cols
+    return a[:h * rows, :w * cols].reshape(h, rows, w, cols).mean(axis=(1, 3))
+
+
+def lagged_products(residuals: np.ndarray, lag: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mean over frames of each pixel's residual times that ``lag`` columns on, and of its square.
+
+    Parameters
+    ----------
+    residuals : ndarray, shape (frames, rows, cols)
+        Frames less their mean.
+    lag : int
+        Columns, at least 1.
+
+    Returns
+    -------
+    products, squares : ndarray of float64, shape (rows, cols - lag)
+    """
+    frames = residuals.shape[0]
+    products = np.zeros(residuals.shape[1:2] + (residuals.shape[2] - lag,))
+    squares = np.zeros_like(products)
+    for r in residuals:  # one frame at a time: memory stays at one frame's
+        p = r[:, :-lag].astype(np.float64) * r[:, lag:]
+        products += p
+        squares += p * p
+    # Residuals about the sample mean: T - 1 degrees of freedom.
+    return products / max(1, frames - 1), squares / max(1, frames - 1)
+
+
+def significant_blocks(products: np.ndarray, squares: np.ndarray, frames: int,
+                       block_rows: int, block_cols: int) -> tuple[np.ndarray, np.ndarray]:
+    """Blocks whose mean lagged product is significant, and the products' block means."""
+    mean = _block_means(products, block_rows, block_cols)
+    spread = _block_means(squares, block_rows, block_cols)
+    standard_error = np.sqrt(spread / (frames * block_rows * block_cols / 4.0))
+    return mean > MIN_SIGNIFICANCE * np.maximum(standard_error, 1e-12), mean
+
+
+def _longest_run(keep: np.ndarray) -> slice:
+    """The longest run of True in a boolean array (which holds one)."""
+    bounds = np.flatnonzero(np.diff(np.concatenate([[0], keep.astype(np.int8), [0]])))
+    starts, stops = bounds[::2], bounds[1::2]
+    longest = int(np.argmax(stops - starts))
+    return slice(int(starts[longest]), int(stops[longest]))
+
+
+def stripe_region(frames: Sequence) -> StripeRegion | None:
+    """The region of a sequence's moving stripes, or None when nothing moves between frames.
+
+    Parameters
+    ----------
+    frames : sequence of array_like
+        At least two frames of one size, grey ``(H, W)`` or colour ``(H, W, 3)``.
+
+    Returns
+    -------
+    StripeRegion or None
+        None for fewer than two frames, frames too narrow for the column lag,
+        or no significant block (the LED's phase the same in every frame,
+        or no LED).
+    """
+    from scipy.ndimage import binary_dilation, label
+
+    if len(frames) < 2:
+        return None
+    stack = np.stack([as_frame_array(f) for f in frames]).astype(np.float32)
+    if stack.ndim == 3:
+        stack = stack[..., None]
+    count, height, width = stack.shape[:3]
+    lag = min(COLUMN_LAG, width // 3)
+    if lag < 1 or height < BLOCK_PX:
+        return None
+    block_cols = min(BLOCK_PX, max(1, (width - lag) // 2))
+    best = None
+    for channel in range(stack.shape[3]):
+        values = stack[..., channel]
+        products, squares = lagged_products(values - values.mean(axis=0), lag)
+        significant, mean = significant_blocks(products, squares, count, BLOCK_PX, block_cols)
+        score = float(np.sum(mean[significant]))
+        if significant.any() and (best is None or score > best[0]):
+            best = (score, channel, significant, mean, products)
+    if best is None:
+        return None
+    _, channel, significant, mean, products = best
+    # The LED: the connected blocks holding most of the stripes' energy
+    # (one block's gap bridged).
+    labels, _ = label(binary_dilation(significant))
+    energy = np.bincount(labels.ravel(), np.where(significant, mean, 0.0).ravel())
+    energy[0] = 0.0
+    component = (labels == int(np.argmax(energy))) & significant
+    cols = np.flatnonzero(component.any(axis=0))
+    first, stop = int(cols[0] * block_cols), int((cols[-1] + 1) * block_cols)
+    # The rows where the stripes span at least MIN_ROW_SPAN of the LED's
+    # columns: at a disk's ends the chord is short, the columns' mean is
+    # the background's, and its slope would move the stripes' edges.
+    span = component[:, cols[0]:cols[-1] + 1].mean(axis=1)
+    if not np.any(span >= MIN_ROW_SPAN):  # stripes scattered, in no row across the LED
+        return None
+    rows = _longest_run(span >= MIN_ROW_SPAN)
+    # Only the ends are left out: a run of rows cut from the middle of the
+    # stripes may look regular where the whole does not (a stretch of a
+    # code whose runs happen to be alike).
+    held = np.flatnonzero(span > 0)
+    if rows.stop - rows.start < MIN_ROWS_KEPT * (held[-1] + 1 - held[0]):
+        return None
+    rows = slice(rows.start * BLOCK_PX, rows.stop * BLOCK_PX)
+    weights = np.zeros(width)
+    weights[first:stop] = np.sqrt(np.maximum(products[rows, first:stop].mean(axis=0), 0.0))
+    if not weights.any():
+        return None
+    block_mask = component[rows.start // BLOCK_PX:rows.stop // BLOCK_PX]
+    return StripeRegion(rows=rows, column_weights=weights, channel=channel if stack.shape[3] == 3 else None,
+                        block_mask=block_mask, block_cols=block_cols)
+
+
+def _weighted_rows(block: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Each row's weighted mean (weights of one shape with ``block``, each row's sum positive)."""
+    return np.sum(block * weights, axis=1) / np.sum(weights, axis=1)
+
+
+def region_profile(image, region: StripeRegion) -> RowProfile:
+    """Row profile of a frame over a :class:`StripeRegion` (weighted column mean, DN).
+
+    The noise of each row's mean is measured from the frame: the weighted
+    columns are split into alternate groups of :data:`NOISE_GROUP_COLS`,
+    whose profiles share the stripes and differ by noise.
+    """
+    frame = as_frame_array(image)
+    values = frame[..., region.channel] if region.channel is not None and frame.ndim == 3 else frame
+    if values.ndim == 3:  # a grey region on colour frames: their mean
+        values = values.mean(axis=2)
+    block = values[region.rows].astype(np.float64)
+    weights = np.broadcast_to(region.column_weights, block.shape)
+    if region.block_mask is not None:
+        inside = np.repeat(np.repeat(region.block_mask, BLOCK_PX, axis=0), region.block_cols, axis=1)
+        mask = np.zeros(block.shape, dtype=bool)
+        mask[:inside.shape[0], :inside.shape[1]] = inside[:block.shape[0], :block.shape[1]]
+        weights = np.where(mask, weights, 0.0)
+    profile = _weighted_rows(block, weights)
+    group = (np.arange(block.shape[1]) // NOISE_GROUP_COLS) % 2 == 0
+    half_a, half_b = np.where(group, weights, 0.0), np.where(group, 0.0, weights)
+    if np.all(half_a.sum(axis=1) > 0) and np.all(half_b.sum(axis=1) > 0):
+        difference = _weighted_rows(block, half_a) - _weighted_rows(block, half_b)
+        # Row-to-row steps of the difference: the halves' envelopes cancel.
+        steps = np.diff(difference)
+        sigma_difference = float(np.sqrt(np.mean(steps**2) / 2.0)) if steps.size else 0.0
+        # var(difference) = σ²(share_a + share_b); the profile's is σ² · share.
+        share_a, share_b, share = (np.mean(np.sum(w**2, axis=1) / np.sum(w, axis=1) ** 2)
+                                   for w in (half_a, half_b, weights))
+        sigma = sigma_difference * np.sqrt(share / (share_a + share_b))
+    else:
+        sigma = 0.0
+    return RowProfile(first_row=region.rows.start, values=profile, noise=np.full(profile.size, sigma),
+                      channel=region.channel)
