@@ -24,6 +24,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from decoder.binarize import binarize_profile
+from decoder.binning import MIN_GROUPS_PER_PERIOD, profile_binning
 from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
@@ -151,7 +152,10 @@ def edge_period_rows(profile: RowProfile, guess_rows: float) -> tuple[float, flo
         return None
     if not runs_fit_a_square_wave(values, runs.bounds, period):
         return None
-    if not folds_to_a_square_wave(profile.values, profile.noise, period):
+    binning = profile_binning(profile.values)
+    if period < MIN_GROUPS_PER_PERIOD * binning:  # aliased: a binned row's time is its group's
+        return None
+    if not folds_to_a_square_wave(profile.values, profile.noise, period, binning):
         return None
     if not one_peak_per_period(profile.values, profile.noise, period):
         return None
@@ -199,7 +203,7 @@ def without_envelope(values: np.ndarray, period_rows: float) -> np.ndarray:
     return values - uniform_filter1d(values, max(2, int(round(period_rows))), mode="nearest")
 
 
-def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: float) -> bool:
+def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: float, binning: int = 1) -> bool:
     """Whether a row profile repeats at ``period_rows`` as one square wave.
 
     The profile less its mean over one period (the LED's slow envelope) is
@@ -216,6 +220,10 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
         Row means and their noise (DN), as :class:`decoder.profile.RowProfile`.
     period_rows : float
         The period, rows.
+    binning : int
+        Rows per binned group (:func:`decoder.binning.profile_binning`):
+        rows are compared a whole number of groups apart, so that a group
+        meets a group and not the rows of two.
     """
     n = np.size(values)
     if not (period_rows > 0 and n >= 3 * period_rows):
@@ -236,12 +244,13 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
     decided = state[state != 0]
     if int(np.count_nonzero(decided != np.roll(decided, 1))) != 2:
         return False
-    # Whole rows a whole number of periods away (the number, up to 4, that
-    # brings the shift nearest a whole row): interpolating between rows
-    # would blur a stripe narrower than a row, and call the blur a mismatch.
-    shift = min((k * period_rows for k in range(1, 5) if k * period_rows < n / 3),
-                key=lambda s: abs(s - round(s)), default=period_rows)
-    lag = int(round(shift))
+    # Whole groups of rows a whole number of periods away (the number, up to
+    # 4, that brings the shift nearest a whole group): interpolating between
+    # rows would blur a stripe narrower than a row, and call the blur a
+    # mismatch.
+    shift = min((k * period_rows / binning for k in range(1, 5) if k * period_rows < n / 3),
+                key=lambda s: abs(s - round(s)), default=period_rows / binning)
+    lag = int(round(shift)) * binning
     if lag < 1 or n <= 2 * lag:
         return False
     centre = detrended[lag:n - lag]
@@ -347,20 +356,24 @@ def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
         except FrameError:
             region = None
     del first
-    periods, errors = [], []
+    in_region, in_frame = [], []
     for item in items:  # files read one at a time: memory stays flat in their number
         image = _load(item)
         try:
-            # The stripes' own region first; the brightest region where the
-            # frames gave none, or its profile no square wave.
-            found = profile_period_rows(region_profile(image, region)) if region is not None else None
-            if found is None:
-                found = frame_period_rows(image)
+            in_region.append(profile_period_rows(region_profile(image, region)) if region is not None else None)
+            in_frame.append(frame_period_rows(image))
         except FrameError:
-            found = None
-        if found is not None:
-            periods.append(found[0])
-            errors.append(max(found[1], 1e-9 * found[0]))
+            in_region.append(None)
+            in_frame.append(None)
+    # The stripes' own region first, the brightest region where its profile
+    # shows no square wave. When most frames' stripes are not one (a code
+    # that looks regular over some frames' rows), the region says nothing.
+    if region is not None and 2 * sum(f is not None for f in in_region) >= len(in_region):
+        found = [r if r is not None else f for r, f in zip(in_region, in_frame)]
+    else:
+        found = in_frame
+    periods = [f[0] for f in found if f is not None]
+    errors = [max(f[1], 1e-9 * f[0]) for f in found if f is not None]
     if not periods:
         raise RowTimeError("no frame shows a square-wave LED to calibrate the row time from")
     p = np.asarray(periods)

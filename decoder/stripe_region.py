@@ -30,21 +30,25 @@ from decoder.profile import RowProfile
 # Columns between the two pixels of a product: beyond the reach of
 # demosaicing and of the noise a tone curve or a JPEG block shares, odd so
 # that it pairs Bayer sites of both kinds.
-COLUMN_LAG = 9
-# Blocks of pixels (rows × columns) over which the products are averaged.
-BLOCK_PX = 16
+COLUMN_LAG = 17
+# Blocks of pixels (rows × columns, the finest first) over which the
+# products are averaged.
+BLOCK_SIZES_PX = (16, 32, 64)
 # A block is the stripes' when its mean product exceeds this many of its
 # standard errors (a quarter of its pixels counted as independent: rows
 # within a stripe move together).
 MIN_SIGNIFICANCE = 4.0
+# Chance that noise alone makes one block of a frame set significant: the
+# threshold grows with the blocks tested (a 4K colour frame has 100,000).
+FALSE_BLOCK_RATE = 0.01
+# Blocks of negative mean needed to measure the noise's spread from them.
+MIN_NEGATIVE_BLOCKS = 8
 # Columns of the two halves set against each other to measure the profile's
 # noise: groups wider than demosaicing's and JPEG's reach.
 NOISE_GROUP_COLS = 8
 # Least fraction of the LED's block columns holding stripes in a block row
 # for its rows to be read.
 MIN_ROW_SPAN = 0.5
-# Least fraction of the stripes' rows, first to last, that those rows must be.
-MIN_ROWS_KEPT = 0.75
 
 
 @dataclass(frozen=True)
@@ -61,19 +65,20 @@ class StripeRegion:
     channel : int or None
         Channel of a colour frame carrying the stripes best (0 R, 1 G, 2 B),
         None for grey frames.
-    block_mask : ndarray of bool, shape (rows // BLOCK_PX, width // block_cols), optional
+    block_mask : ndarray of bool, shape (rows // block_rows, width // block_cols), optional
         The blocks of ``rows`` holding stripes: a row's mean is over the
         weighted columns of its blocks only (a disk's chord, not the
         background beside it). None: every weighted column.
-    block_cols : int
-        Columns of a block.
+    block_rows, block_cols : int
+        Rows and columns of a block.
     """
 
     rows: slice
     column_weights: np.ndarray
     channel: int | None
     block_mask: np.ndarray | None = None
-    block_cols: int = BLOCK_PX
+    block_rows: int = 16
+    block_cols: int = 16
 
 
 def _block_means(a: np.ndarray, rows: int, cols: int) -> np.ndarray:
@@ -106,21 +111,42 @@ def lagged_products(residuals: np.ndarray, lag: int) -> tuple[np.ndarray, np.nda
     return products / max(1, frames - 1), squares / max(1, frames - 1)
 
 
+def significance_threshold(blocks: int) -> float:
+    """Standard errors a block's mean must exceed: :data:`MIN_SIGNIFICANCE`, or more where so many
+    blocks are tested that noise alone would pass one (at most :data:`FALSE_BLOCK_RATE` of frame sets)."""
+    from scipy.special import ndtri
+
+    return max(MIN_SIGNIFICANCE, float(-ndtri(FALSE_BLOCK_RATE / max(1, blocks))))
+
+
 def significant_blocks(products: np.ndarray, squares: np.ndarray, frames: int,
-                       block_rows: int, block_cols: int) -> tuple[np.ndarray, np.ndarray]:
-    """Blocks whose mean lagged product is significant, and the products' block means."""
+                       block_rows: int, block_cols: int, channels: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Blocks whose mean lagged product is significant, and each block's mean in standard errors.
+
+    The standard error is the larger of the products' own (a quarter of a
+    block's pixels counted as independent) and the spread of the blocks
+    whose mean is negative: noise alone gives means of either sign alike,
+    stripes only positive ones, so the negative side measures what noise
+    does, correlations the count leaves out (JPEG's chroma) included.
+    """
     mean = _block_means(products, block_rows, block_cols)
     spread = _block_means(squares, block_rows, block_cols)
     standard_error = np.sqrt(spread / (frames * block_rows * block_cols / 4.0))
-    return mean > MIN_SIGNIFICANCE * np.maximum(standard_error, 1e-12), mean
+    negative = mean[mean < 0]
+    if negative.size >= MIN_NEGATIVE_BLOCKS:
+        standard_error = np.maximum(standard_error, float(np.sqrt(np.mean(negative**2))))
+    z = mean / np.maximum(standard_error, 1e-12)
+    return z > significance_threshold(z.size * channels), z
 
 
-def _longest_run(keep: np.ndarray) -> slice:
-    """The longest run of True in a boolean array (which holds one)."""
-    bounds = np.flatnonzero(np.diff(np.concatenate([[0], keep.astype(np.int8), [0]])))
-    starts, stops = bounds[::2], bounds[1::2]
-    longest = int(np.argmax(stops - starts))
-    return slice(int(starts[longest]), int(stops[longest]))
+def led_component(significant: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The connected significant blocks (a block's gap bridged) of the greatest summed significance."""
+    from scipy.ndimage import binary_dilation, label
+
+    labels, _ = label(binary_dilation(significant))
+    weight = np.bincount(labels.ravel(), np.where(significant, z, 0.0).ravel())
+    weight[0] = 0.0
+    return (labels == int(np.argmax(weight))) & significant
 
 
 def stripe_region(frames: Sequence) -> StripeRegion | None:
@@ -138,8 +164,6 @@ def stripe_region(frames: Sequence) -> StripeRegion | None:
         or no significant block (the LED's phase the same in every frame,
         or no LED).
     """
-    from scipy.ndimage import binary_dilation, label
-
     if len(frames) < 2:
         return None
     stack = np.stack([as_frame_array(f) for f in frames]).astype(np.float32)
@@ -147,49 +171,64 @@ def stripe_region(frames: Sequence) -> StripeRegion | None:
         stack = stack[..., None]
     count, height, width = stack.shape[:3]
     lag = min(COLUMN_LAG, width // 3)
-    if lag < 1 or height < BLOCK_PX:
+    if lag < 1:
         return None
-    block_cols = min(BLOCK_PX, max(1, (width - lag) // 2))
-    best = None
+    channels = []
     for channel in range(stack.shape[3]):
         values = stack[..., channel]
-        products, squares = lagged_products(values - values.mean(axis=0), lag)
-        significant, mean = significant_blocks(products, squares, count, BLOCK_PX, block_cols)
-        score = float(np.sum(mean[significant]))
-        if significant.any() and (best is None or score > best[0]):
-            best = (score, channel, significant, mean, products)
-    if best is None:
-        return None
-    _, channel, significant, mean, products = best
-    # The LED: the connected blocks holding most of the stripes' energy
-    # (one block's gap bridged).
-    labels, _ = label(binary_dilation(significant))
-    energy = np.bincount(labels.ravel(), np.where(significant, mean, 0.0).ravel())
-    energy[0] = 0.0
-    component = (labels == int(np.argmax(energy))) & significant
+        channels.append(lagged_products(values - values.mean(axis=0), lag))
+    # The finest blocks that show the stripes: larger ones average more
+    # pixels, for a fainter LED, at a coarser outline.
+    for block_rows in BLOCK_SIZES_PX:
+        if height < 2 * block_rows:
+            break
+        block_cols = min(block_rows, max(1, (width - lag) // 2))
+        best = None
+        for channel, (products, squares) in enumerate(channels):
+            significant, z = significant_blocks(products, squares, count, block_rows, block_cols, len(channels))
+            if not significant.any():
+                continue
+            # The channel whose LED stands out most from its noise.
+            component = led_component(significant, z)
+            score = float(np.sum(z[component]))
+            if best is None or score > best[0]:
+                best = (score, channel, component)
+        if best is not None:
+            _, channel, component = best
+            return _region_of(component, channels[channel][0], block_rows, block_cols,
+                              channel if stack.shape[3] == 3 else None, width)
+    return None
+
+
+def _region_of(component: np.ndarray, products: np.ndarray, block_rows: int, block_cols: int,
+               channel: int | None, width: int) -> StripeRegion | None:
+    """The :class:`StripeRegion` of the LED's blocks, or None when its rows are not read whole."""
     cols = np.flatnonzero(component.any(axis=0))
     first, stop = int(cols[0] * block_cols), int((cols[-1] + 1) * block_cols)
     # The rows where the stripes span at least MIN_ROW_SPAN of the LED's
     # columns: at a disk's ends the chord is short, the columns' mean is
     # the background's, and its slope would move the stripes' edges.
     span = component[:, cols[0]:cols[-1] + 1].mean(axis=1)
-    if not np.any(span >= MIN_ROW_SPAN):  # stripes scattered, in no row across the LED
+    across = span >= MIN_ROW_SPAN
+    if not across.any():  # stripes scattered, in no row across the LED
         return None
-    rows = _longest_run(span >= MIN_ROW_SPAN)
-    # Only the ends are left out: a run of rows cut from the middle of the
-    # stripes may look regular where the whole does not (a stretch of a
-    # code whose runs happen to be alike).
-    held = np.flatnonzero(span > 0)
-    if rows.stop - rows.start < MIN_ROWS_KEPT * (held[-1] + 1 - held[0]):
+    # Only the ends are left out: rows cut from the middle of the stripes
+    # may look regular where the whole does not (a stretch of a code whose
+    # runs happen to be alike). So the rows across the LED must be one run
+    # (a block's gap bridged).
+    first_row, last_row = np.flatnonzero(across)[[0, -1]]
+    inner = across[first_row:last_row + 1]
+    if np.any(~inner[:-1] & ~inner[1:]):  # two blocks in a row not across
         return None
-    rows = slice(rows.start * BLOCK_PX, rows.stop * BLOCK_PX)
+    rows = slice(int(first_row), int(last_row) + 1)
+    block_mask = component[rows]
+    rows = slice(rows.start * block_rows, rows.stop * block_rows)
     weights = np.zeros(width)
     weights[first:stop] = np.sqrt(np.maximum(products[rows, first:stop].mean(axis=0), 0.0))
     if not weights.any():
         return None
-    block_mask = component[rows.start // BLOCK_PX:rows.stop // BLOCK_PX]
-    return StripeRegion(rows=rows, column_weights=weights, channel=channel if stack.shape[3] == 3 else None,
-                        block_mask=block_mask, block_cols=block_cols)
+    return StripeRegion(rows=rows, column_weights=weights, channel=channel, block_mask=block_mask,
+                        block_rows=block_rows, block_cols=block_cols)
 
 
 def _weighted_rows(block: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -211,10 +250,13 @@ def region_profile(image, region: StripeRegion) -> RowProfile:
     block = values[region.rows].astype(np.float64)
     weights = np.broadcast_to(region.column_weights, block.shape)
     if region.block_mask is not None:
-        inside = np.repeat(np.repeat(region.block_mask, BLOCK_PX, axis=0), region.block_cols, axis=1)
+        inside = np.repeat(np.repeat(region.block_mask, region.block_rows, axis=0), region.block_cols, axis=1)
         mask = np.zeros(block.shape, dtype=bool)
         mask[:inside.shape[0], :inside.shape[1]] = inside[:block.shape[0], :block.shape[1]]
-        weights = np.where(mask, weights, 0.0)
+        masked = np.where(mask, weights, 0.0)
+        # A block row bridged inside the LED holds no block of its own: its
+        # rows take every weighted column.
+        weights = np.where(masked.sum(axis=1, keepdims=True) > 0, masked, weights)
     profile = _weighted_rows(block, weights)
     group = (np.arange(block.shape[1]) // NOISE_GROUP_COLS) % 2 == 0
     half_a, half_b = np.where(group, weights, 0.0), np.where(group, 0.0, weights)

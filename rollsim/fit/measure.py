@@ -18,6 +18,8 @@ from typing import Sequence
 
 import numpy as np
 
+from decoder.binning import binned_groups
+
 
 @dataclass(frozen=True)
 class LedDisk:
@@ -110,39 +112,14 @@ class LedRegion:
     block: tuple[slice, slice] | None
 
 
-# Rows in groups of k are binned when neighbours within a group differ at
-# most this fraction as much as neighbours across a group's edge (a
-# JPEG's 8-row blocks and 4:2:0 chroma pairs stay above it).
-BINNED_RATIO = 0.1
-MAX_BINNING = 4
-
-
 def detect_binning(frames: Sequence[np.ndarray]) -> tuple[int, int]:
     """Binned readout seen in the frames: (k, offset), rows ``offset + j·k``
     starting each group of k near-identical rows; (1, 0) when the rows are not
-    grouped.
-
-    For each k (2 … :data:`MAX_BINNING`) and offset, the mean absolute
-    difference of neighbouring rows within groups is set against that
-    across group edges; the frames are binned by the k whose ratio is
-    lowest, when it is under :data:`BINNED_RATIO`.
+    grouped (:func:`decoder.binning.binned_groups`, over frames and columns).
     """
     stack = np.asarray(frames, dtype=np.float64)
     steps = np.abs(np.diff(stack, axis=1)).mean(axis=(0, 2))  # row r+1 against row r, over frames and columns
-    best, best_ratio = (1, 0), BINNED_RATIO
-    boundary = np.arange(1, steps.size + 1)  # steps[i] compares rows i and i + 1
-    for k in range(2, MAX_BINNING + 1):
-        if stack.shape[1] < 4 * k:
-            break
-        for offset in range(k):
-            across = (boundary - offset) % k == 0
-            if not across.any() or across.all():
-                continue
-            inside, edge = float(steps[~across].mean()), float(steps[across].mean())
-            ratio = inside / edge if edge > 0 else 1.0
-            if ratio < best_ratio - 1e-12:
-                best, best_ratio = (k, offset), ratio
-    return best
+    return binned_groups(steps)
 
 
 def lit_border_fraction(brightest: np.ndarray, darkest: np.ndarray, period_rows: float) -> float:
