@@ -173,3 +173,18 @@ def test_an_exposure_longer_than_the_gap_between_frames_is_kept():
     _check_times(hidden, fit, 0.10)
     assert fit.scene.camera.exposure_s <= fit.scene.camera.frame_period_s
     assert any("frame rate is lowered" in note for note in fit.notes)
+
+
+@pytest.mark.parametrize("on_full_scales,exposure_chips", [(0.5, 1.3), (0.8, 2.6), (3.0, 0.7)])
+def test_the_bench_reads_stripe_contrast_off_a_noise_free_frame(on_full_scales, exposure_chips):
+    """Grey, linear, no ISP, a dark background: the contrast is the box's closed form, clipped at full scale."""
+    from rollsim.bench.fit_camera import HiddenCamera, stripe_contrast_8bit
+    from rollsim.fit.stripes import box_level_range
+
+    cam = HiddenCamera(index=0, width_px=320, height_px=240, row_time_us=20.0, exposure_chips=exposure_chips,
+                       clock_hz=2500.0, on_full_scales=on_full_scales, led_diameter_px=200.0, led_x_px=160.0,
+                       led_y_px=120.0, background_full_scales=0.0, binning_rows=1, jpeg_quality=None, colour=False,
+                       iso=400.0, read_noise_e=2.0, srgb=False, smoothing_rows=0.0, seed=3)
+    least, most = box_level_range(exposure_chips)
+    expected = 255.0 * (min(on_full_scales * most, 1.0) - min(on_full_scales * least, 1.0))
+    assert stripe_contrast_8bit(cam) == pytest.approx(expected, rel=0.1, abs=2.0)
