@@ -17,6 +17,7 @@ larger of the combined standard error and the spread between frames.
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Iterable
 
@@ -210,9 +211,9 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
     (1) folded: averaged in phase bins about a row wide, and the fold must
     cross its middle exactly twice (hysteresis :data:`FOLD_HYSTERESIS`);
     (2) compared with itself a period away: each row less the mean of the
-    rows a whole number of periods before and after it (the nearest whole
-    row), whose RMS, its noise removed, is at most
-    :data:`MAX_PERIOD_MISMATCH` of the profile's.
+    rows a whole number of periods before and after it (:func:`period_lags`),
+    whose RMS, its noise removed, is at most :data:`MAX_PERIOD_MISMATCH` of
+    the profile's for one of those shifts.
 
     Parameters
     ----------
@@ -244,21 +245,47 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
     decided = state[state != 0]
     if int(np.count_nonzero(decided != np.roll(decided, 1))) != 2:
         return False
-    # Whole groups of rows a whole number of periods away (the number, up to
-    # 4, that brings the shift nearest a whole group): interpolating between
-    # rows would blur a stripe narrower than a row, and call the blur a
-    # mismatch.
-    shift = min((k * period_rows / binning for k in range(1, 5) if k * period_rows < n / 3),
-                key=lambda s: abs(s - round(s)), default=period_rows / binning)
-    lag = int(round(shift)) * binning
+    noise_var = 1.5 * float(np.mean(np.asarray(noise, dtype=np.float64) ** 2))
+    return any(_period_mismatch_ratio(detrended, lag, noise_var) <= MAX_PERIOD_MISMATCH
+               for lag in period_lags(period_rows, n, binning))
+
+
+def period_lags(period_rows: float, n_rows: int, binning: int = 1) -> list[int]:
+    """Whole-row shifts a whole number of periods long, to compare a profile with itself.
+
+    For k = 1 … 4 periods (each under a third of the ``n_rows``), the shift
+    rounded to a whole group of ``binning`` rows, and, for unbinned or
+    undetected binning, to an even number of rows as well (a binned pair
+    blurred by demosaicing or JPEG no longer looks binned, but still holds
+    one exposure start): those within half a row of k periods. When none
+    is, the one nearest. Interpolating between rows instead would blur a
+    stripe narrower than a row, and call the blur a mismatch.
+    """
+    shifts = [k * period_rows for k in range(1, 5) if k * period_rows < n_rows / 3] or [period_rows]
+    steps = (binning,) if binning > 1 else (1, 2)
+    candidates = sorted({(int(round(s / step)) * step, s) for s in shifts for step in steps}, key=lambda c: c[0])
+    near = [lag for lag, s in candidates if lag >= 1 and abs(lag - s) <= 0.5]
+    if near:
+        return sorted(set(near))
+    lag, _ = min(candidates, key=lambda c: abs(c[0] - c[1]))
+    return [lag] if lag >= 1 else []
+
+
+def _period_mismatch_ratio(detrended: np.ndarray, lag: int, noise_var: float) -> float:
+    """RMS of each row less the mean of the rows ``lag`` before and after, its noise removed, over the profile's RMS.
+
+    The mismatch holds the row's noise and half of each neighbour's: 1.5 σ²
+    (``noise_var``). Infinite when the profile is shorter than two lags.
+    """
+    n = detrended.size
     if lag < 1 or n <= 2 * lag:
-        return False
+        return math.inf
     centre = detrended[lag:n - lag]
     mismatch = centre - 0.5 * (detrended[:n - 2 * lag] + detrended[2 * lag:])
-    # The mismatch holds the row's noise and half of each neighbour's: 1.5 σ².
-    noise_var = 1.5 * float(np.mean(np.asarray(noise, dtype=np.float64) ** 2))
-    mismatch_var = max(0.0, float(np.mean(mismatch**2)) - noise_var)
-    return mismatch_var <= MAX_PERIOD_MISMATCH**2 * float(np.mean(centre**2))
+    power = float(np.mean(centre**2))
+    if not power > 0:
+        return math.inf
+    return math.sqrt(max(0.0, float(np.mean(mismatch**2)) - noise_var) / power)
 
 
 def one_peak_per_period(values: np.ndarray, noise: np.ndarray, period_rows: float) -> bool:

@@ -6,7 +6,7 @@ from synth import profile_from_chips
 
 from decoder.binning import binned_groups, profile_binning
 from decoder.profile import RowProfile
-from decoder.rowtime import profile_period_rows
+from decoder.rowtime import MAX_PERIOD_MISMATCH, _period_mismatch_ratio, period_lags, profile_period_rows, without_envelope
 
 
 def binned(values: np.ndarray, k: int, offset: int = 0) -> np.ndarray:
@@ -58,3 +58,30 @@ def test_binned_square_waves_are_read(period_rows):
 def test_periods_under_two_and_a_half_groups_are_refused(period_rows, k):
     """Sampled fewer than 2.5 times a period, a stripe aliases: no answer rather than a wrong one."""
     assert profile_period_rows(_profile(binned(square_profile(period_rows, noise=0.5), k))) is None
+
+
+def test_binned_pairs_blurred_past_detection_are_still_read():
+    """Demosaicing or JPEG makes a binned pair's rows differ: the binning is not seen, but even shifts still
+    set a group against a group."""
+    rng = np.random.default_rng(4)
+    values = binned(square_profile(9.2, exposure_rows=0.5), 2)  # sharp edges: a group's rows matter
+    # A pair's second row partly interpolated from the next group's, as a
+    # Bayer mosaic's demosaicing does on the rows of its other colour.
+    values[1:-1:2] = 0.6 * values[1:-1:2] + 0.4 * values[2::2][:values[1:-1:2].size]
+    values = values + rng.normal(0.0, 0.5, values.size)
+    assert profile_binning(values) == 1
+    assert 18 in period_lags(9.2, values.size) and 28 in period_lags(9.2, values.size)
+    found = profile_period_rows(_profile(values))
+    assert found is not None and found[0] == pytest.approx(9.2, rel=0.005)
+    # Nine rows on, a group's first row meets a group's second: that shift alone would refuse it.
+    detrended = without_envelope(values, 9.2)
+    noise_var = 1.5 * 0.5**2
+    assert _period_mismatch_ratio(detrended, 9, noise_var) > MAX_PERIOD_MISMATCH
+    assert _period_mismatch_ratio(detrended, 18, noise_var) <= MAX_PERIOD_MISMATCH
+
+
+def test_period_lags_are_whole_groups_within_half_a_row():
+    assert period_lags(9.2, 600) == [9, 18, 28, 37]
+    assert period_lags(9.2, 600, binning=2) == [18, 28]
+    assert period_lags(10.0, 600, binning=4) == [20, 40]
+    assert period_lags(9.2, 20) == [9]  # one period: under a third of the rows or not, the nearest
