@@ -7,8 +7,9 @@ period is a whole number of the waveform's periods). So each frame less the
 sequence's mean holds the stripes and noise, and nothing else. Stripes are
 the same all along a row of the LED, noise is not: the product of a pixel's
 residual and that of the pixel :data:`COLUMN_LAG` columns away has mean zero
-for noise (whatever its level, tone curve or demosaicing, whose correlations
-reach a pixel or two) and the stripes' variance on the LED. Averaged over
+for noise (whatever its level or tone curve; demosaicing's correlations
+reach a pixel or two, JPEG's 4:2:0 chroma blocks 16) and the stripes'
+variance on the LED. Averaged over
 blocks of pixels, the blocks whose mean product is significant form the LED.
 
 This finds a small LED in a large frame, a faint one on a bright or noisy
@@ -87,13 +88,14 @@ def _block_means(a: np.ndarray, rows: int, cols: int) -> np.ndarray:
     return a[:h * rows, :w * cols].reshape(h, rows, w, cols).mean(axis=(1, 3))
 
 
-def lagged_products(residuals: np.ndarray, lag: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mean over frames of each pixel's residual times that ``lag`` columns on, and of its square.
+def lagged_products(frames: np.ndarray, lag: int) -> tuple[np.ndarray, np.ndarray]:
+    """Mean over frames of each pixel's residual (the frame less the frames' mean) times that
+    ``lag`` columns on, and of its square.
 
     Parameters
     ----------
-    residuals : ndarray, shape (frames, rows, cols)
-        Frames less their mean.
+    frames : ndarray, shape (frames, rows, cols)
+        One channel of the frames, any numeric dtype.
     lag : int
         Columns, at least 1.
 
@@ -101,15 +103,17 @@ def lagged_products(residuals: np.ndarray, lag: int) -> tuple[np.ndarray, np.nda
     -------
     products, squares : ndarray of float64, shape (rows, cols - lag)
     """
-    frames = residuals.shape[0]
-    products = np.zeros(residuals.shape[1:2] + (residuals.shape[2] - lag,))
+    count = frames.shape[0]
+    mean = frames.mean(axis=0, dtype=np.float64)
+    products = np.zeros(frames.shape[1:2] + (frames.shape[2] - lag,))
     squares = np.zeros_like(products)
-    for r in residuals:  # one frame at a time: memory stays at one frame's
-        p = r[:, :-lag].astype(np.float64) * r[:, lag:]
+    for frame in frames:  # one frame's residual at a time: memory stays at a few frames'
+        r = frame - mean
+        p = r[:, :-lag] * r[:, lag:]
         products += p
         squares += p * p
     # Residuals about the sample mean: T - 1 degrees of freedom.
-    return products / max(1, frames - 1), squares / max(1, frames - 1)
+    return products / max(1, count - 1), squares / max(1, count - 1)
 
 
 def significance_threshold(blocks: int) -> float:
@@ -129,6 +133,18 @@ def significant_blocks(products: np.ndarray, squares: np.ndarray, frames: int,
     whose mean is negative: noise alone gives means of either sign alike,
     stripes only positive ones, so the negative side measures what noise
     does, correlations the count leaves out (JPEG's chroma) included.
+
+    Parameters
+    ----------
+    products, squares : ndarray, shape (rows, cols)
+        From :func:`lagged_products`.
+    frames : int
+        Frames the products are over.
+    block_rows, block_cols : int
+        Block size, pixels.
+    channels : int
+        Channels tested alike: the threshold
+        (:func:`significance_threshold`) counts all their blocks.
     """
     mean = _block_means(products, block_rows, block_cols)
     spread = _block_means(squares, block_rows, block_cols)
@@ -167,7 +183,7 @@ def stripe_region(frames: Sequence) -> StripeRegion | None:
     """
     if len(frames) < 2:
         return None
-    stack = np.stack([as_frame_array(f) for f in frames]).astype(np.float32)
+    stack = np.stack([as_frame_array(f) for f in frames])  # their own dtype: uint8 for 8-bit frames
     if stack.ndim == 3:
         stack = stack[..., None]
     count, height, width = stack.shape[:3]
@@ -176,8 +192,7 @@ def stripe_region(frames: Sequence) -> StripeRegion | None:
         return None
     channels = []
     for channel in range(stack.shape[3]):
-        values = stack[..., channel]
-        channels.append(lagged_products(values - values.mean(axis=0), lag))
+        channels.append(lagged_products(stack[..., channel], lag))
     # The finest blocks that show the stripes: larger ones average more
     # pixels, for a fainter LED, at a coarser outline.
     for block_rows in BLOCK_SIZES_PX:
