@@ -104,12 +104,13 @@ def lagged_products(frames: np.ndarray, lag: int) -> tuple[np.ndarray, np.ndarra
     products, squares : ndarray of float64, shape (rows, cols - lag)
     """
     count = frames.shape[0]
-    mean = frames.mean(axis=0, dtype=np.float64)
+    # Residuals in float32 (8-bit levels less a mean: ample), products summed in float64.
+    mean = frames.mean(axis=0, dtype=np.float32)
     products = np.zeros(frames.shape[1:2] + (frames.shape[2] - lag,))
     squares = np.zeros_like(products)
     for frame in frames:  # one frame's residual at a time: memory stays at a few frames'
-        r = frame - mean
-        p = r[:, :-lag] * r[:, lag:]
+        r = frame.astype(np.float32) - mean
+        p = r[:, :-lag].astype(np.float64) * r[:, lag:]
         products += p
         squares += p * p
     # Residuals about the sample mean: T - 1 degrees of freedom.
