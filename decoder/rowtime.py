@@ -30,7 +30,7 @@ from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
 from decoder.region import block_means, choose_factor, detect_regions
-from decoder.stripe_region import region_profile, stripe_region
+from decoder.stripe_region import StripeRegion, region_profile, stripe_region
 from decoder.pitch import grid_regression, peak_period_rows
 from decoder.timing import find_runs
 
@@ -204,6 +204,19 @@ def without_envelope(values: np.ndarray, period_rows: float) -> np.ndarray:
     return values - uniform_filter1d(values, max(2, int(round(period_rows))), mode="nearest")
 
 
+def folded(values: np.ndarray, period_rows: float, bins: int) -> np.ndarray | None:
+    """A row profile folded at ``period_rows``: the mean of its rows in each of ``bins`` phase bins.
+
+    Row r falls in bin ⌊(r mod P) / P · bins⌋. None when a bin holds no row.
+    """
+    n = np.size(values)
+    index = np.minimum((np.mod(np.arange(n), period_rows) / period_rows * bins).astype(np.intp), bins - 1)
+    counts = np.bincount(index, minlength=bins)
+    if np.any(counts == 0):
+        return None
+    return np.bincount(index, np.asarray(values, dtype=np.float64), minlength=bins) / counts
+
+
 def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: float, binning: int = 1) -> bool:
     """Whether a row profile repeats at ``period_rows`` as one square wave.
 
@@ -231,11 +244,9 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
         return False
     detrended = without_envelope(values, period_rows)
     bins = max(3, int(np.ceil(period_rows)))
-    index = np.minimum((np.mod(np.arange(n), period_rows) / period_rows * bins).astype(np.intp), bins - 1)
-    counts = np.bincount(index, minlength=bins)
-    if np.any(counts == 0):
+    fold = folded(detrended, period_rows, bins)
+    if fold is None:
         return False
-    fold = np.bincount(index, detrended, minlength=bins) / counts
     low, high = float(fold.min()), float(fold.max())
     if not high > low:
         return False
@@ -345,6 +356,15 @@ def _load(item):
     return read_frame(item) if isinstance(item, (str, os.PathLike)) else item
 
 
+def _period_in(image, region: StripeRegion | None = None) -> tuple[float, float, int] | None:
+    """A frame's square-wave period (as :func:`profile_period_rows`) over ``region``, or over
+    its brightest region when None; None for no square wave or a frame the decoder cannot use."""
+    try:
+        return profile_period_rows(region_profile(image, region)) if region is not None else frame_period_rows(image)
+    except FrameError:
+        return None
+
+
 def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
     """Row time from frames of an LED sending a chip-rate square wave.
 
@@ -383,22 +403,18 @@ def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
         except FrameError:
             region = None
     del first
-    in_region, in_frame = [], []
+    # The stripes' own region first, the brightest region where its profile
+    # shows no square wave.
+    in_region, found = [], []
     for item in items:  # files read one at a time: memory stays flat in their number
         image = _load(item)
-        try:
-            in_region.append(profile_period_rows(region_profile(image, region)) if region is not None else None)
-            in_frame.append(frame_period_rows(image))
-        except FrameError:
-            in_region.append(None)
-            in_frame.append(None)
-    # The stripes' own region first, the brightest region where its profile
-    # shows no square wave. When most frames' stripes are not one (a code
-    # that looks regular over some frames' rows), the region says nothing.
-    if region is not None and 2 * sum(f is not None for f in in_region) >= len(in_region):
-        found = [r if r is not None else f for r, f in zip(in_region, in_frame)]
-    else:
-        found = in_frame
+        in_region.append(_period_in(image, region) if region is not None else None)
+        found.append(in_region[-1] if in_region[-1] is not None else _period_in(image))
+    if region is not None and 2 * sum(r is not None for r in in_region) < len(in_region):
+        # Most frames' stripes are not one square wave (a code that looks
+        # regular over some frames' rows): the region says nothing, and the
+        # frames it read are read again on their brightest region.
+        found = [_period_in(_load(item)) if r is not None else f for item, r, f in zip(items, in_region, found)]
     periods = [f[0] for f in found if f is not None]
     errors = [max(f[1], 1e-9 * f[0]) for f in found if f is not None]
     if not periods:

@@ -181,8 +181,7 @@ def stripe_contrast_8bit(cam: HiddenCamera) -> float:
     where it is largest. 0 when the LED's core is out of the frame or holds
     less than a period.
     """
-    from scipy.ndimage import uniform_filter1d
-
+    from decoder.rowtime import folded, without_envelope
     from rollsim.render import render_frames
 
     images, _ = render_frames(hidden_scene(cam, noise=False), 1)
@@ -196,18 +195,13 @@ def stripe_contrast_8bit(cam: HiddenCamera) -> float:
     if core.shape[0] < 2 or core.shape[1] < 1:
         return 0.0
     profile = core.mean(axis=1)  # (rows, channels)
-    stripes = profile - uniform_filter1d(profile, max(2, int(round(cam.period_rows))), axis=0, mode="nearest")
     # Folded at the stripe period: what repeats at other periods (a Bayer
     # mosaic's two rows, JPEG's eight) or not at all (the LED's envelope)
     # averages out.
     bins = int(np.clip(np.floor(cam.period_rows), 2, 32))
-    phase = np.mod(np.arange(stripes.shape[0]), cam.period_rows) / cam.period_rows
-    index = np.minimum((phase * bins).astype(np.intp), bins - 1)
-    counts = np.bincount(index, minlength=bins)
-    if np.any(counts == 0):
-        return 0.0
-    fold = np.stack([np.bincount(index, stripes[:, c], minlength=bins) / counts for c in range(stripes.shape[1])])
-    return float(np.max(fold.max(axis=1) - fold.min(axis=1)))
+    folds = [folded(without_envelope(profile[:, c], cam.period_rows), cam.period_rows, bins)
+             for c in range(profile.shape[1])]
+    return max((float(np.ptp(f)) for f in folds if f is not None), default=0.0)
 
 
 def run_camera(cam: HiddenCamera) -> dict:
