@@ -158,13 +158,16 @@ class Measured:
 
 
 def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float],
-            region: LedRegion | None = None, start: StripeFit | None = None) -> Measured:
+            region: LedRegion | None = None, start: StripeFit | None = None,
+            stripes_at: tuple[slice, float] | None = None) -> Measured:
     """The fit's statistics of a set of frames (see the module docstring, steps 1–5).
 
     ``row_time`` is the row time and its uncertainty (s, s), estimated first
     (:func:`rollsim.fit.refine.fit_camera`: the cheap check). ``region``
     skips its estimation (rendered frames of a fit are measured where the
     frames were); ``start`` starts the stripe fit from an earlier one.
+    ``stripes_at`` (rows, centre column where the stripes move between
+    frames) checks the region found (:func:`rollsim.fit.measure.find_led_region`).
     """
     shape = frames[0].shape
     row_time_s, row_time_sd = row_time
@@ -172,7 +175,7 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     brightest = np.max(frames, axis=0)
     mean_frame = np.mean(frames, axis=0)
     if region is None:
-        region = find_led_region(brightest, np.min(frames, axis=0), mean_frame, HALO_RADII, period)
+        region = find_led_region(brightest, np.min(frames, axis=0), mean_frame, HALO_RADII, period, stripes_at)
     rows, cols = region.band
     binning = detect_binning(frames)
     profiles = [f[rows, cols].mean(axis=1) for f in frames]

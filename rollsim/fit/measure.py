@@ -154,12 +154,88 @@ def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float)
     return block if area >= MIN_BACKGROUND_PIXELS else None
 
 
+# Swings (means over the stripes' rows or the LED's columns) within this
+# fraction of their peak are all the LED's: lit columns differ by its
+# profile and their averaged noise (a few per cent), the background's swing
+# is its noise alone, well below the stripes' where they are read.
+FLAT_SWING = 0.1
+
+
+def _half_run(values: np.ndarray, at: int) -> tuple[int, int]:
+    """The run of ``values`` above half-way from their 5th percentile to their
+    peak that holds index ``at`` (or the peak, when ``at`` is not above it): [start, stop).
+
+    All of them when they lie within :data:`FLAT_SWING` of their peak: all
+    lit (an LED that fills the crop), where half-way would split their noise.
+    """
+    low, high = float(np.percentile(values, 5)), float(values.max())
+    if high - low <= FLAT_SWING * high:
+        return 0, values.size
+    above = values > 0.5 * (low + high)
+    at = at if 0 <= at < values.size and above[at] else int(np.argmax(values))
+    below = np.flatnonzero(~above)
+    start = int(below[below < at].max()) + 1 if np.any(below < at) else 0
+    stop = int(below[below > at].min()) if np.any(below > at) else values.size
+    return start, stop
+
+
+def disk_from_swing(brightest: np.ndarray, darkest: np.ndarray, stripes: tuple[slice, float],
+                    period_rows: float) -> LedDisk | None:
+    """The LED's disk from where the frames swing (brightest less darkest) around its stripes.
+
+    ``stripes`` are the rows and the centre column where the stripes move
+    between frames (:func:`decoder.stripe_region.stripe_region`). Across
+    those rows the swing's half-height run of columns is the LED's width;
+    down those columns (each row's swing the most over a stripe period, so
+    that a row the stripes left dark counts), its run of rows is its height.
+    A run cut by the frame's edge gives no extent; None when both are cut
+    (the LED fills the frame, or the crop).
+    """
+    from scipy.ndimage import maximum_filter1d
+
+    swing = np.asarray(brightest, dtype=np.float64) - np.asarray(darkest, dtype=np.float64)
+    rows, centre_col = stripes
+    h, w = swing.shape
+    x0, x1 = _half_run(swing[rows].mean(axis=0), int(centre_col))
+    down = maximum_filter1d(swing[:, x0:x1].mean(axis=1), size=max(1, int(np.ceil(period_rows))) | 1,
+                            mode="nearest")
+    y0, y1 = _half_run(down, (rows.start + rows.stop) // 2)
+    clear_x, clear_y = x0 > 0 and x1 < w, y0 > 0 and y1 < h
+    if not (clear_x or clear_y):
+        return None
+    radius = 0.5 * max((x1 - x0) if clear_x else 0, (y1 - y0) if clear_y else 0)
+
+    def centre(start: int, stop: int, size: int, clear: bool) -> float:
+        if clear or (start == 0 and stop == size):
+            return 0.5 * (start + stop)
+        return stop - radius if start == 0 else start + radius  # cut by one edge: from the other
+
+    return LedDisk(centre(x0, x1, w, clear_x), centre(y0, y1, h, clear_y), float(radius), int(y1 - y0))
+
+
+def _disk_agrees(disk: LedDisk | None, stripes: tuple[slice, float], period_rows: float) -> bool:
+    """Whether a disk is centred on the stripes: its centre row within a
+    quarter of their rows' span (and a stripe period) of theirs, and its
+    centre column within its radius of theirs."""
+    if disk is None:
+        return False
+    rows, centre_col = stripes
+    centre_row = 0.5 * (rows.start + rows.stop)
+    return (abs(disk.centre_y_px - centre_row) <= 0.25 * (rows.stop - rows.start) + period_rows
+            and abs(disk.centre_x_px - centre_col) <= disk.radius_px)
+
+
 def find_led_region(brightest: np.ndarray, darkest: np.ndarray, mean_frame: np.ndarray, halo_radii: float,
-                    period_rows: float) -> LedRegion:
+                    period_rows: float, stripes: tuple[slice, float] | None = None) -> LedRegion:
     """The LED's disk (or that it fills the frame), its central band and a background block.
 
     ``brightest``, ``darkest`` and ``mean_frame`` are the frames' pixelwise
     maximum, minimum and mean; ``period_rows`` is the stripe period (rows).
+    ``stripes`` (rows, centre column: where the stripes move between
+    frames) checks the answer: a bright background lights the border as
+    an LED filling the frame would, and a brighter blob than the LED draws
+    the disk; where the stripes disagree, the disk is the one the frames'
+    swing draws around them (:func:`disk_from_swing`).
 
     Raises
     ------
@@ -168,11 +244,16 @@ def find_led_region(brightest: np.ndarray, darkest: np.ndarray, mean_frame: np.n
     """
     shape = brightest.shape
     h, w = shape
-    if lit_border_fraction(brightest, darkest, period_rows) >= FILLS_BORDER_FRACTION:
+    fills = lit_border_fraction(brightest, darkest, period_rows) >= FILLS_BORDER_FRACTION
+    background = float(np.median(mean_frame))
+    disk = None if fills else find_led_disk(brightest, background)
+    if stripes is not None and not _disk_agrees(disk, stripes, period_rows):
+        swung = disk_from_swing(brightest, darkest, stripes, period_rows)
+        if swung is not None:
+            disk = swung
+    if disk is None:
         c0, c1 = (0, w) if w <= NARROW_COLUMNS else (int(0.2 * w), int(np.ceil(0.8 * w)))
         return LedRegion(None, (slice(0, h), slice(c0, c1)), None)
-    background = float(np.median(mean_frame))
-    disk = find_led_disk(brightest, background)
     block = background_block(shape, disk, halo_radii)
     rows, cols = central_band(disk, shape)
     return LedRegion(disk, (bright_core_rows(brightest[rows, cols].mean(axis=1), rows, background), cols), block)

@@ -102,7 +102,10 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     if any(f.shape != shape for f in frames) or not (len(shape) == 2 or (len(shape) == 3 and shape[2] == 3)):
         raise ValueError("the frames must all be grey or all RGB images of one size")
     # The cheap check first: without a square wave nothing is fitted.
-    row_time = estimate_row_time([np.clip(np.rint(f), 0, 255).astype(np.uint8) for f in frames], clock_hz)
+    eight_bit = [np.clip(np.rint(f), 0, 255).astype(np.uint8) for f in frames]
+    row_time = estimate_row_time(eight_bit, clock_hz)
+    stripes_at = moving_stripes(eight_bit)
+    del eight_bit
     colour = len(shape) == 3
     if colour:
         channel, frames = choose_channel(frames, 2.0 / (clock_hz * row_time[0]))
@@ -111,7 +114,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         channel, frames = "grey", as_fitted(frames, "grey")
     say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px ({channel}); "
         "fitting the stripes and the noise")
-    target = measure(frames, clock_hz, row_time=row_time)
+    target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at)
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
     params, noise = direct(target, base)
     notes: list[str] = []
@@ -134,6 +137,20 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     assert best is not None  # the loop runs at least once
     _, params, scene, notes = best
     return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes, channel)
+
+
+def moving_stripes(frames: Sequence[np.ndarray]) -> tuple[slice, float] | None:
+    """The rows and the centre column where the stripes move between frames
+    (:func:`decoder.stripe_region.stripe_region` on the first frames, as the
+    row-time estimator reads them), or None where nothing is seen to move."""
+    from decoder.rowtime import REGION_FRAMES
+    from decoder.stripe_region import stripe_region
+
+    region = stripe_region(list(frames[:REGION_FRAMES]))
+    if region is None:
+        return None
+    weights = region.column_weights
+    return region.rows, float(np.sum(weights * (np.arange(weights.size) + 0.5)) / np.sum(weights))
 
 
 def as_fitted(images, channel: str) -> list[np.ndarray]:

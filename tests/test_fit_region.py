@@ -1,0 +1,78 @@
+"""rollsim.fit.measure.find_led_region checked by where the stripes move.
+
+The brightest frame alone misplaces the LED where something else is as
+bright: a bright background lights the frame's border as an LED filling the
+frame would, and a brighter static lamp draws the disk. The stripes, which
+move between frames, say where the LED is; the frames' swing (brightest less
+darkest) around them gives its disk.
+"""
+
+import numpy as np
+import pytest
+
+from rollsim.fit.measure import disk_from_swing, find_led_region
+from rollsim.fit.refine import moving_stripes
+
+PERIOD_ROWS = 16.0
+
+
+def _frames(shape, centre, radius, background, amplitude, seed=1, lamp=None, count=6, noise=3.0):
+    """8-bit frames of a striped LED disk on a flat background (each frame its own stripe phase),
+    with an optional static lamp (centre, radius, level) brighter than the LED."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    inside = np.hypot(xx + 0.5 - centre[0], yy + 0.5 - centre[1]) <= radius
+    frames = []
+    for phase in rng.uniform(0, PERIOD_ROWS, count):
+        on = ((yy + phase) % PERIOD_ROWS) < PERIOD_ROWS / 2
+        image = np.full(shape, float(background)) + amplitude * (inside & on)
+        if lamp is not None:
+            (lx, ly), lr, level = lamp
+            image[np.hypot(xx + 0.5 - lx, yy + 0.5 - ly) <= lr] = level
+        image += rng.normal(0.0, noise, shape)
+        frames.append(np.clip(np.rint(image), 0, 255).astype(np.uint8))
+    return frames
+
+
+def _region(frames, stripes):
+    stack = np.asarray(frames, dtype=np.float64)
+    return find_led_region(stack.max(axis=0), stack.min(axis=0), stack.mean(axis=0), 1.8, PERIOD_ROWS, stripes)
+
+
+def test_a_bright_background_is_not_an_led_filling_the_frame():
+    # A faint LED on a bright, noisy background (as JPEG'd colour frames show one).
+    frames = _frames((300, 400), (84.0, 200.0), 40.0, background=150, amplitude=20, noise=5.0)
+    assert _region(frames, None).disk is None  # the lit border alone reads as an LED filling the frame
+    disk = _region(frames, moving_stripes(frames)).disk
+    assert disk is not None
+    assert disk.centre_x_px == pytest.approx(84.0, abs=3.0)
+    assert disk.centre_y_px == pytest.approx(200.0, abs=3.0)
+    assert disk.radius_px == pytest.approx(40.0, rel=0.1)
+
+
+def test_a_brighter_lamp_does_not_draw_the_disk():
+    frames = _frames((300, 400), (300.0, 150.0), 45.0, background=20, amplitude=60, lamp=((80.0, 80.0), 30.0, 250))
+    lamp_disk = _region(frames, None).disk
+    assert lamp_disk is not None and abs(lamp_disk.centre_x_px - 80.0) < 45.0  # drawn on the lamp
+    disk = _region(frames, moving_stripes(frames)).disk
+    assert disk.centre_x_px == pytest.approx(300.0, abs=3.0)
+    assert disk.centre_y_px == pytest.approx(150.0, abs=3.0)
+    assert disk.radius_px == pytest.approx(45.0, rel=0.1)
+
+
+def test_a_crop_the_led_fills_across_keeps_its_rows_and_background():
+    frames = _frames((600, 30), (15.0, 250.0), 160.0, background=60, amplitude=80)
+    region = _region(frames, moving_stripes(frames))
+    disk = region.disk
+    assert disk.centre_x_px == pytest.approx(15.0)
+    assert disk.centre_y_px == pytest.approx(250.0, abs=3.0)
+    assert disk.radius_px == pytest.approx(160.0, rel=0.05)
+    assert region.block is not None and region.block[0].start >= 250 + 160  # the rows below the LED
+
+
+def test_an_led_filling_the_frame_has_no_disk():
+    frames = _frames((200, 300), (150.0, 100.0), 400.0, background=30, amplitude=90)
+    stripes = moving_stripes(frames)
+    stack = np.asarray(frames, dtype=np.float64)
+    assert disk_from_swing(stack.max(axis=0), stack.min(axis=0), stripes, PERIOD_ROWS) is None
+    assert _region(frames, stripes).disk is None
