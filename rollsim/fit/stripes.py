@@ -26,7 +26,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
 
-from rollsim.isp import gaussian_kernel
 
 __all__ = ["StripeFit", "fit_stripes", "square_wave_box", "stripe_profile"]
 
@@ -67,11 +66,32 @@ def box_level_range(exposure_chips: float) -> tuple[float, float]:
     return (whole + max(0.0, rest - 1.0)) / exposure_chips, (whole + min(rest, 1.0)) / exposure_chips
 
 
+# The model's Gaussian reaches this many σ: its tail beyond (e^-32 of the
+# peak) is below float64's resolution of the sum, so the kernel's length
+# steps with σ without a step in the profile.
+MODEL_KERNEL_SIGMAS = 8.0
+
+
+def model_kernel(sigma_rows: float) -> np.ndarray:
+    """The ISP's vertical Gaussian as the fit models it: float64, unit sum, smooth in σ.
+
+    The fit differentiates the profile by finite differences, steps of about
+    1e-8 of σ. The rendered kernel (:func:`rollsim.isp.gaussian_kernel`) is
+    float32, whose weights move in steps of 6e-8, and ends at 4σ, where its
+    length steps by two rows: either hides or swamps the derivative, and σ
+    stays where the fit started it.
+    """
+    radius = max(1, int(np.ceil(MODEL_KERNEL_SIGMAS * sigma_rows)))
+    x = np.arange(-radius, radius + 1, dtype=np.float64)
+    kernel = np.exp(-0.5 * (x / sigma_rows) ** 2)
+    return kernel / kernel.sum()
+
+
 def _smoothed(values: np.ndarray, sigma_rows: float) -> np.ndarray:
     """``values`` smoothed by the ISP's Gaussian (mirrored ends, as :func:`rollsim.isp.smooth`)."""
     if sigma_rows <= 0.05:
         return values
-    kernel = gaussian_kernel(sigma_rows).astype(np.float64)
+    kernel = model_kernel(sigma_rows)
     pad = kernel.size // 2
     if pad >= values.size:
         return np.full_like(values, values.mean())

@@ -1,0 +1,39 @@
+"""rollsim.fit.stripes: the stripe model is smooth in its parameters, and its fit finds them.
+
+The fit differentiates the model by finite differences (steps of about
+1e-8 of a parameter), so the model must move with such a step as it does
+with a larger one: a kernel stored in float32 (steps of 6e-8) hid the
+smoothing's derivative and left σ where it started.
+"""
+
+import numpy as np
+import pytest
+
+from rollsim.fit.stripes import fit_stripes, stripe_profile
+
+PERIOD = 20.0
+
+
+def _profile(rows, exposure, sigma, phase=3.0, on=0.8, off=0.1, gamma=1.0):
+    return stripe_profile(rows, PERIOD, phase, exposure, sigma, gamma, on, off)
+
+
+@pytest.mark.parametrize("sigma", [0.7, 1.5])
+def test_the_profile_moves_with_a_tiny_step_of_the_smoothing(sigma):
+    rows = np.arange(200.0)
+    tiny, wide = 1e-8, 1e-4
+    d_tiny = (_profile(rows, 6.0, sigma + tiny) - _profile(rows, 6.0, sigma)) / tiny
+    d_wide = (_profile(rows, 6.0, sigma + wide) - _profile(rows, 6.0, sigma - wide)) / (2 * wide)
+    assert np.max(np.abs(d_wide)) > 1.0  # σ matters here
+    np.testing.assert_allclose(d_tiny, d_wide, atol=1e-3 * np.max(np.abs(d_wide)) + 1e-4)
+
+
+@pytest.mark.parametrize("exposure, sigma", [(6.0, 1.5), (3.0, 1.0), (13.0, 1.2)])
+def test_the_fit_recovers_the_exposure_and_the_smoothing_of_exact_profiles(exposure, sigma):
+    rows = np.arange(40, 360).astype(np.float64)
+    profiles = [_profile(rows, exposure, sigma, phase=p) for p in (1.3, 7.9, 12.4, 17.0)]
+    fit = fit_stripes(profiles, rows, PERIOD)
+    # Up to whole periods and the reflection E <-> P - E, which make the same stripes.
+    assert min(abs(fit.exposure_rows - exposure), abs(fit.exposure_rows - (PERIOD - exposure))) < 0.02 * exposure
+    assert fit.smoothing_rows == pytest.approx(sigma, abs=0.05)
+    assert fit.rms_residual < 0.05
