@@ -1,10 +1,17 @@
 """A deliberately simple decoder of one's own: one global threshold.
 
 Written without rollsim's ``decoder`` package, as a decoder author would
-start, to show how any decoder is scored against rollsim's ground truth::
+start, to show how any decoder is scored against rollsim's ground truth.
+From the repository's root, beside rollsim's decoder on a scene where it
+reads (most of the PHY-SDUs at ISO 40000) and one where it fails on
+purpose (a dim LED in a dark room, where it reads none)::
 
-    rollsim render stress-low-light --out run --frames 50
-    rollsim decode run --decoder examples.threshold_decoder:decode --force
+    rollsim bench stress stress-high-iso stress-low-light --frames 30 --decoder examples.threshold_decoder:decode
+
+or alone, into a render's folder (its own ``decoded.jsonl``)::
+
+    rollsim render stress-high-iso --out run --frames 30
+    rollsim decode run --decoder examples.threshold_decoder:decode
     rollsim evaluate run
 
 or from Python, ``rs.decode(frames, decoder=decode)``. It takes the LED's

@@ -1,7 +1,8 @@
 """rollsim from Python, notebook style: render, decode, evaluate, fit and plot.
 
-Run it as a script (``python examples/tour.py [OUT.png] [FRAMES]``) or cell
-by cell in a notebook. For the paper's default link at three distances it
+Run it as a script (``python examples/tour.py [--out DIR] [--frames N]``;
+the plot goes to ``DIR/tour.png``, DIR a new temporary folder when not
+given, never the current one) or cell by cell in a notebook. For the paper's default link at three distances it
 renders frames, decodes them with rollsim's decoder, scores every PHY-SDU
 against the ground truth, fits the MMBP channel model, and plots the
 fraction of fully visible PHY-SDUs received and the fitted ON slots per
@@ -10,7 +11,9 @@ cycle, M / (M + N), against distance.
 
 from __future__ import annotations
 
-import sys
+import argparse
+import tempfile
+from pathlib import Path
 
 import matplotlib
 
@@ -54,10 +57,22 @@ def plot(rows: list[dict], path: str) -> None:
     plt.close(fig)
 
 
-if __name__ == "__main__":
-    out = sys.argv[1] if len(sys.argv) > 1 else "tour.png"
-    table = tour(int(sys.argv[2]) if len(sys.argv) > 2 else 30)
+def main(argv: list[str] | None = None) -> Path:
+    """The script: the table printed, the plot written into ``--out`` (made if missing); its path."""
+    parser = argparse.ArgumentParser(description="rollsim's tour: three distances, rendered, decoded, fitted")
+    parser.add_argument("--out", type=Path, help="folder for tour.png (default: a new temporary folder)")
+    parser.add_argument("--frames", type=int, default=30, help="frames per distance (default 30)")
+    args = parser.parse_args(argv)
+    out = args.out if args.out is not None else Path(tempfile.mkdtemp(prefix="rollsim-tour-"))
+    out.mkdir(parents=True, exist_ok=True)
+    table = tour(args.frames)
     for row in table:
         print(row)
-    plot(table, out)
-    print(f"wrote {out}")
+    path = out / "tour.png"
+    plot(table, str(path))
+    print(f"wrote {path}")
+    return path
+
+
+if __name__ == "__main__":
+    main()
