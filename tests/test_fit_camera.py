@@ -134,6 +134,10 @@ def test_fit_camera_recovers_the_hidden_camera(round_trip):
     est = {k: v["value"] for k, v in fit["estimates"].items()}
     assert est["row_time_us"] == pytest.approx(31.7, rel=0.005)
     assert est["exposure_us"] == pytest.approx(140, rel=0.10)
+    # Any other exposure the stripes allow is whole periods (500 us at 4 kHz) away, or the reflection.
+    for alt in fit["estimates"]["exposure_us"].get("alternatives", []):
+        k, r = (alt - est["exposure_us"]) / 500.0, (alt + est["exposure_us"]) / 500.0
+        assert min(abs(k - round(k)), abs(r - round(r))) < 1e-6, alt
     assert est["led_centre_x_px"] == pytest.approx(250.3, abs=2)
     assert est["led_centre_y_px"] == pytest.approx(170.6, abs=2)
     assert est["led_diameter_px"] == pytest.approx(setup.led_size_px, rel=0.10)

@@ -65,12 +65,15 @@ class Estimate:
     how: str
     source: str = FRAMES
     reason: str | None = None
+    alternatives: tuple[float, ...] = ()  # other values the frames allow as well (same unit)
 
     def to_json(self) -> dict:
         unc = self.uncertainty if self.uncertainty is not None and math.isfinite(self.uncertainty) else None
-        out = {"value": self.value, "uncertainty": unc, "unit": self.unit, "how": self.how, "source": self.source}
+        out: dict = {"value": self.value, "uncertainty": unc, "unit": self.unit, "how": self.how, "source": self.source}
         if self.reason:
             out["reason"] = self.reason
+        if self.alternatives:
+            out["alternatives"] = list(self.alternatives)
         return out
 
 
@@ -308,35 +311,84 @@ MAX_WHOLE_PERIODS = 4
 MIN_OFF_LEVEL = -0.005
 
 
-def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:
-    """The exposure (rows) and linear ON and OFF levels, of those the stripes allow.
+@dataclass(frozen=True)
+class ExposureChoice:
+    """One exposure the stripes allow, and the linear levels it implies.
+
+    ``reflected``: the reflection E ↔ P − E of the fitted exposure;
+    ``whole_periods``: the stripe periods added to it.
+    """
+
+    exposure_rows: float
+    on: float
+    off: float
+    reflected: bool
+    whole_periods: int
+
+
+def face_level(m: Measured, base: Scene) -> float:
+    """The ambient light on the LED's face (linear, fraction of the ADC range): the
+    background's times the base scene's face over background reflectance; 0 without a background."""
+    if m.background is None:
+        return 0.0
+    return float(linear_level(m.background, m.stripes.gamma)) * base.led.face_reflectance / max(
+        base.environment.background_reflectance, 1e-9)
+
+
+def exposure_choices(m: Measured, base: Scene) -> list[ExposureChoice]:
+    """The exposures the stripes allow, the most likely first.
 
     The stripes' shape tells the exposure only up to whole periods and the
     reflection E ↔ P − E (:func:`rollsim.fit.stripes.levels_for_whole_periods`,
-    :func:`rollsim.fit.stripes.reflected_levels`); each choice implies its
-    own OFF level. An LED is dark when OFF: the choice whose OFF level is
-    nearest the ambient light on the LED's face is taken, that level being
-    the background's times the base scene's face over background reflectance
-    (0 without a background).
+    :func:`rollsim.fit.stripes.reflected_levels`): frames rendered with any
+    of these choices are the same where they do not clip. Each implies its
+    own OFF level. Light is never negative: a choice whose OFF level is below
+    zero (beyond the fit's noise, :data:`MIN_OFF_LEVEL`) is left out (unless
+    every one is). An LED is dark when OFF: the rest are ordered by how near
+    their OFF level is to the ambient light on the LED's face
+    (:func:`face_level`).
     """
     s, period = m.stripes, m.stripes_period_rows
-    face = 0.0
-    if m.background is not None:
-        face = float(linear_level(m.background, s.gamma)) * base.led.face_reflectance / max(
-            base.environment.background_reflectance, 1e-9)
     # A wave fitted upside down (ON below OFF) is the same wave half a period
     # on, with the levels swapped (w_E(r + P/2) = 1 − w_E(r)).
     on0, off0 = (s.on, s.off) if s.on >= s.off else (s.off, s.on)
-    starts = [(s.exposure_rows, on0, off0)]
+    starts = [(False, (s.exposure_rows, on0, off0))]
     if 0 < s.exposure_rows < period:
-        starts.append(reflected_levels(s.exposure_rows, on0, off0, period))
-    candidates = [levels_for_whole_periods(e0, a, b, period, k)
-                  for e0, a, b in starts for k in range(MAX_WHOLE_PERIODS + 1)]
-    # Light is never negative: an OFF level below zero (beyond the fit's
-    # noise, MIN_OFF_LEVEL) is not a choice.
-    possible = [c for c in candidates if float(c[2]) >= MIN_OFF_LEVEL] or candidates
-    exposure, on, off = min(possible, key=lambda c: abs(float(c[2]) - face))
-    return float(exposure), float(on), float(off)
+        starts.append((True, reflected_levels(s.exposure_rows, on0, off0, period)))
+    candidates = []
+    for reflected, (e0, a, b) in starts:
+        for k in range(MAX_WHOLE_PERIODS + 1):
+            exposure, on, off = levels_for_whole_periods(e0, a, b, period, k)
+            candidates.append(ExposureChoice(float(exposure), float(on), float(off), reflected, k))
+    possible = [c for c in candidates if c.off >= MIN_OFF_LEVEL] or candidates
+    face = face_level(m, base)
+    return sorted(possible, key=lambda c: abs(c.off - face))
+
+
+def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:
+    """The exposure (rows) and linear ON and OFF levels: the first of :func:`exposure_choices`."""
+    best = exposure_choices(m, base)[0]
+    return best.exposure_rows, best.on, best.off
+
+
+def exposure_alternatives_rows(exposure_rows: float, period_rows: float,
+                               choices: Sequence[ExposureChoice]) -> list[float]:
+    """The other choices' exposures (rows), moved as the first choice was moved to ``exposure_rows``.
+
+    The refinement moves the first choice by a fraction of a period; the
+    others keep their relation to it: with E₀ the exposure within the first
+    period, a choice is E₀ (or P − E₀, reflected) plus its whole periods.
+    Ascending, without the first choice and without repeats.
+    """
+    first = choices[0]
+    within = exposure_rows - first.whole_periods * period_rows
+    e0 = period_rows - within if first.reflected else within
+    out = set()
+    for c in choices[1:]:
+        e = (period_rows - e0 if c.reflected else e0) + c.whole_periods * period_rows
+        if e > 0 and abs(e - exposure_rows) > 1e-9 * period_rows:
+            out.add(round(e, 9))
+    return sorted(out)
 
 
 def direct(m: Measured, base: Scene) -> tuple[Parameters, NoiseFit]:

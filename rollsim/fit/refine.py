@@ -19,7 +19,8 @@ import numpy as np
 
 from rollsim.fit.channel import choose_channel
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
-    anchor_variance, corrected, direct, level_ratio, measure, noise_anchors
+    anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, measure, \
+    noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
@@ -198,7 +199,9 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         "exposure_us": Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
                                 "width of the box that rounds the stripes' edges (ramps between clipped plateaus "
                                 "and the OFF runs' widths when saturated); whole periods and the reflection E <-> "
-                                "P - E chosen by the OFF level; refined by rendering"),
+                                "P - E chosen by the OFF level; refined by rendering",
+                                alternatives=tuple(e * t_row_us for e in exposure_alternatives_rows(
+                                    cam.exposure_us / t_row_us, m.stripes_period_rows, exposure_choices(m, base)))),
         "isp_smoothing_rows": Estimate(p.smoothing_rows, unc.get("smoothing_rows"), "rows",
                                        "sigma of the ISP's vertical Gaussian, from the edges' shape"),
         "tone_gamma": Estimate(p.gamma, unc.get("gamma"), "", "gamma of the tone curve v^(1/gamma), from the edges"),

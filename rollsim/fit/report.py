@@ -74,6 +74,21 @@ def frames_png(comparison: Comparison) -> bytes:
     return data.tobytes()
 
 
+def alternatives_lines(estimates: dict) -> list[str]:
+    """A paragraph for each estimate the frames allow other values of (the exposure's whole stripe
+    periods and reflection), so that a reader who knows the camera's setting can tell which is right."""
+    lines = []
+    for name, e in estimates.items():
+        if e.alternatives:
+            values = ", ".join(f"{v:.4g}" for v in e.alternatives)
+            lines += ["", f"**{name}**: these frames allow {values} {e.unit} as well: where they do not clip, "
+                      "frames rendered with any of these values are the same (whole stripe periods more, and "
+                      "the reflection E ↔ P − E, with the LED's ON and OFF levels to match). The fit took the "
+                      "one whose OFF level is nearest the ambient light on the LED's face; if the camera's "
+                      "setting is known, it tells which is right."]
+    return lines
+
+
 def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str:
     lines = ["# rollsim fit-camera", "",
              f"{len(sources)} frames ({fit.channel}); the scene is `camera.yaml`, every estimate with its "
@@ -86,6 +101,7 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
         unc = "" if e.uncertainty is None or not np.isfinite(e.uncertainty) else f"{e.uncertainty:.4g}"
         why = e.how if e.reason is None else f"{e.how}; {e.reason}"
         lines.append(f"| {name} | {e.value:.6g} | {unc} | {e.unit} | {e.source} | {why} |")
+    lines += alternatives_lines(fit.estimates)
     r = np.asarray(comparison.correlations)
     lines += ["", "## Frames against the fit", "",
               "![the first frame (left) and the first frame rendered from the fit (right), at the LED](frames.png)",

@@ -1,0 +1,85 @@
+"""rollsim.fit.camera.exposure_choices: the exposures the stripes allow, and the alternatives a fit reports.
+
+Whole stripe periods of exposure more, and the reflection E <-> P - E, make
+the same stripes with other ON and OFF levels; a fit picks one by the OFF
+level and names the others (``alternatives`` in fit.json), so that a user
+who knows the camera's setting can tell which is right.
+"""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from rollsim.fit.camera import MIN_OFF_LEVEL, Estimate, exposure_alternatives_rows, exposure_choices
+from rollsim.fit.report import alternatives_lines
+from rollsim.fit.stripes import square_wave_box
+from rollsim.scene import load_scene
+
+PERIOD = 20.0
+
+
+def _measured(exposure_rows, on, off, background=None):
+    stripes = SimpleNamespace(exposure_rows=exposure_rows, on=on, off=off, gamma=1.0)
+    return SimpleNamespace(stripes=stripes, stripes_period_rows=PERIOD, background=background)
+
+
+def _levels(choice, rows, phase):
+    return choice.off + (choice.on - choice.off) * square_wave_box(rows, PERIOD, phase, choice.exposure_rows)
+
+
+@pytest.mark.parametrize("exposure, on, off", [(3.7, 0.6, 0.3), (12.0, 0.9, 0.5), (6.0, 0.3, 0.02)])
+def test_every_choice_makes_the_same_stripes_and_no_negative_light(exposure, on, off):
+    base = load_scene("paper-geometric", [])
+    choices = exposure_choices(_measured(exposure, on, off), base)
+    rows = np.arange(0.0, 200.0)
+    fitted = [c for c in choices if not c.reflected and c.whole_periods == 0]
+    assert fitted and fitted[0].exposure_rows == pytest.approx(exposure)
+    first = _levels(fitted[0], rows, 3.0)
+    for c in choices:
+        assert c.off >= MIN_OFF_LEVEL
+        # The same stripes: directly, or half a period on (the reflection), at some phase.
+        phases = np.linspace(0.0, PERIOD, 401)
+        best = min(np.max(np.abs(_levels(c, rows, p) - first)) for p in phases)
+        assert best < 1e-9 or c.reflected, (c, best)
+        if c.reflected:
+            assert best < 0.01 * (on - off), (c, best)
+
+
+def test_the_choices_are_ordered_by_the_off_level_nearest_the_face():
+    # Without a background the face is dark: the OFF level nearest 0 comes first.
+    base = load_scene("paper-geometric", [])
+    choices = exposure_choices(_measured(12.0, 0.9, 0.5), base)
+    offs = [abs(c.off) for c in choices]
+    assert offs == sorted(offs)
+    # E = 12 rows of P = 20 and its reflection 8, each with one more period (OFF lower by 1/3 each).
+    assert sorted(round(c.exposure_rows, 9) for c in choices) == [8.0, 12.0, 28.0, 32.0]
+
+
+def test_alternatives_follow_the_refined_exposure():
+    base = load_scene("paper-geometric", [])
+    choices = exposure_choices(_measured(12.0, 0.9, 0.5), base)
+    first = choices[0]
+    # The refinement moved the chosen exposure by half a row: the others move with it
+    # (a reflected choice the other way).
+    refined = first.exposure_rows + 0.5
+    alternatives = exposure_alternatives_rows(refined, PERIOD, choices)
+    within = refined - first.whole_periods * PERIOD
+    e0 = PERIOD - within if first.reflected else within
+    expected = sorted({round((PERIOD - e0 if c.reflected else e0) + c.whole_periods * PERIOD, 9)
+                       for c in choices[1:]} - {round(refined, 9)})
+    assert alternatives == pytest.approx(expected)
+    for e in alternatives:
+        # Each is the refined exposure up to whole periods, or its reflection.
+        k = (e - refined) / PERIOD
+        r = (e + refined) / PERIOD
+        assert abs(k - round(k)) < 1e-9 or abs(r - round(r)) < 1e-9
+
+
+def test_the_report_names_the_alternatives():
+    estimates = {"exposure_us": Estimate(140.0, 3.0, "us", "box", alternatives=(497.0, 777.0)),
+                 "iso": Estimate(400.0, None, "", "gain")}
+    text = "\n".join(alternatives_lines(estimates))
+    assert "497, 777 us" in text and "iso" not in text
+    assert Estimate(140.0, 3.0, "us", "box", alternatives=(497.0,)).to_json()["alternatives"] == [497.0]
+    assert "alternatives" not in estimates["iso"].to_json()
