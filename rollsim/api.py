@@ -19,6 +19,12 @@ Frames are rendered one at a time as they are iterated (constant memory);
 :meth:`Frames.materialise` holds them. Truth records are typed
 (:class:`FrameTruth`, :class:`SduTruth`); decoded records are the lines of
 ``decoded.jsonl`` (dicts), whichever decoder made them.
+
+Each object shows its key figures: its repr is one line, and a notebook
+shows them as a small table (``_repr_html_``):
+
+>>> result                                                  # doctest: +ELLIPSIS
+<Result 'paper-default': PHY-SDUs emitted ..., ok ..., goodput ... bit/s...>
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping, Op
 import numpy as np
 
 from rollsim.errors import ApiArgumentError, ApiTypeError, ApiValueError, RollsimError, clip, short_repr
+from rollsim.text_tables import Shown, quantity
 from rollsim.validation import MAX_COUNT
 
 if TYPE_CHECKING:
@@ -318,8 +325,16 @@ class SduTruth:
 _TRUTH_KEYS = ("frame", "start_s", "row_time_s", "exposure_s", "sdus")
 
 
-@dataclass(frozen=True)
-class FrameTruth:
+def _sdu_figures(truth: "FrameTruth") -> list[tuple[str, object]]:
+    """A frame's PHY-SDUs and LED rows, as its repr shows them."""
+    rows = truth.led_rows
+    visible = sum(1 for sdu in truth.sdus if sdu.fully_visible)
+    return [("PHY-SDUs", f"{len(truth.sdus)} ({visible} fully visible)"),
+            ("LED rows", "none" if not rows else f"{rows[0]}..{rows[-1]}")]
+
+
+@dataclass(frozen=True, repr=False)
+class FrameTruth(Shown):
     """The ground truth of one frame (a ``truth.jsonl`` line).
 
     Attributes
@@ -361,6 +376,9 @@ class FrameTruth:
         except (TypeError, ValueError, OverflowError) as exc:  # a field of the wrong type or shape
             raise args.error("record", f"not a truth.jsonl record ({clip(str(exc))})") from None
 
+    def _figures(self):
+        return f"frame {self.frame}", [("start", quantity(self.start_s, "s")), *_sdu_figures(self)]
+
     def to_record(self) -> dict:
         """The ``truth.jsonl`` record."""
         return {"frame": self.frame, "start_s": self.start_s, "row_time_s": self.row_time_s,
@@ -368,7 +386,7 @@ class FrameTruth:
                 "sdus": [{f.name: getattr(sdu, f.name) for f in fields(SduTruth)} for sdu in self.sdus]}
 
 
-class Truth(Sequence):
+class Truth(Shown, Sequence):
     """The truth of a run's frames, in frame order, with the scene they came from.
 
     Parameters
@@ -390,6 +408,14 @@ class Truth(Sequence):
     def __len__(self) -> int:
         return len(self._frames)
 
+    def _figures(self):
+        frames = self._frames
+        span = f" ({frames[0].frame}..{frames[-1].frame})" if frames else ""
+        emitted = {sdu.tx for frame in frames for sdu in frame.sdus}
+        visible = {sdu.tx for frame in frames for sdu in frame.sdus if sdu.fully_visible}
+        return repr(self.scene.name), [("frames", f"{len(frames)}{span}"), ("PHY-SDUs", len(emitted)),
+                                       ("fully visible", len(visible))]
+
     def to_records(self) -> list[dict]:
         """The ``truth.jsonl`` records."""
         return [frame.to_record() for frame in self._frames]
@@ -406,16 +432,21 @@ class Truth(Sequence):
 # ------------------------------------------------------------------- frames
 
 
-@dataclass(frozen=True)
-class Frame:
+@dataclass(frozen=True, repr=False)
+class Frame(Shown):
     """A rendered frame: its index, image (uint8 or uint16 array) and truth."""
 
     index: int
     image: np.ndarray
     truth: FrameTruth
 
+    def _figures(self):
+        height, width, *channels = self.image.shape
+        size = "x".join(str(n) for n in (width, height, *channels))
+        return str(self.index), [("image", f"{size} {self.image.dtype}"), *_sdu_figures(self.truth)]
 
-class Frames:
+
+class Frames(Shown):
     """A scene's frames, rendered one at a time as they are iterated.
 
     Iterating renders each frame afresh (the same bytes every time: a
@@ -440,6 +471,12 @@ class Frames:
 
     def __len__(self) -> int:
         return self.n_frames
+
+    def _figures(self):
+        camera = self.scene.camera
+        count = f"{self.n_frames}" + (f" (from frame {self.start})" if self.start else "")
+        return repr(self.scene.name), [("count", count), ("size", f"{camera.width_px}x{camera.height_px} {camera.output}"),
+                                       ("seed", self.scene.seed)]
 
     def _render(self, index: int) -> Frame:
         if self._pipeline is None:
@@ -624,7 +661,7 @@ def _decoded(args: _Arguments, index: int, found, run_id: Optional[str] = None) 
 # ----------------------------------------------------------------- evaluate
 
 
-class Result:
+class Result(Shown):
     """Every emission's outcome, the false decodes and the rates of a run.
 
     Attributes
@@ -657,6 +694,16 @@ class Result:
     @property
     def scene(self) -> "Scene":
         return self.truth.scene
+
+    def _figures(self):
+        counts = self.summary["counts"]
+        figures: list[tuple[str, object]] = [("PHY-SDUs emitted", self.summary["emissions"])]
+        figures += [(name.replace("_", " "), count) for name, count in counts.items()]
+        message = self.summary.get("message")
+        if message is not None:
+            goodput = quantity(message["goodput_bps"], "bit/s")
+            figures.append(("goodput", goodput if message["decodable"] else f"{goodput} (message not decodable)"))
+        return repr(self.scene.name), figures
 
     def trace(self):
         """The success trace in emission order, with times and scene (:class:`rollsim.calibrate.Trace`)."""
@@ -725,8 +772,8 @@ def _decoded_records(args: _Arguments, decoded) -> list[dict]:
 # ---------------------------------------------------------------- calibrate
 
 
-@dataclass(frozen=True)
-class MmbpModel:
+@dataclass(frozen=True, repr=False)
+class MmbpModel(Shown):
     """A fitted MMBP channel and the message size it serves.
 
     Attributes
@@ -760,6 +807,12 @@ class MmbpModel:
     def p_e(self) -> float:
         return self.fit.p_e
 
+    def _figures(self):
+        from rollsim.calibrate.mmbp import p_e_text
+
+        return "", [("M", self.M), ("N", self.N), ("p_e", p_e_text(self.fit.as_dict()).removeprefix("p_e = ")),
+                    ("N_p", self.n_packets)]
+
     def p_message(self, r: int, strategy: str = "rp", n_packets: Optional[int] = None) -> float:
         """Probability that one message round delivers every PHY-SDU (exact, log space).
 
@@ -785,8 +838,8 @@ class MmbpModel:
         return float(mmbp_p_message(self.M, self.N, r, self.p_e, n, strategy))
 
 
-@dataclass(frozen=True)
-class Calibration:
+@dataclass(frozen=True, repr=False)
+class Calibration(Shown):
     """The channel models fitted to a run (``rollsim calibrate``).
 
     Attributes
@@ -801,6 +854,11 @@ class Calibration:
     mmbp: MmbpModel
     ge: Any
     report: dict
+
+    def _figures(self):
+        ge = self.ge
+        return "", [*self.mmbp._figures()[1], ("GE p", ge.p), ("GE q", ge.q), ("GE p_e", ge.p_e),
+                    ("selected by BIC", self.report["selected_by_bic"])]
 
 
 def calibrate(result: Result, n_packets: Optional[int] = None, seed: int = 1) -> Calibration:

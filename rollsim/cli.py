@@ -95,13 +95,46 @@ def _add_json_file(parser: argparse.ArgumentParser, help_text: str = "also write
 def _add_scene_output_options(parser: argparse.ArgumentParser) -> None:
     """SCENE, --out DIR and the options of commands that render a scene into a directory."""
     parser.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
-    parser.add_argument("--out", required=True, metavar="DIR", help="output directory (must be empty, or use --force)")
+    parser.add_argument("--out", required=True, metavar="DIR",
+                        help="output directory, made with its missing parents (must be empty, or use --force)")
     parser.add_argument("--frames", type=_positive_int, default=None, help="frame count (default: the scene's frames)")
     parser.add_argument("--seed", type=_non_negative_int, default=None, help="override the scene seed")
     _add_force(parser, "a previous rollsim result in the output directory (never anything else)")
     parser.add_argument("--workers", type=_workers, default=None, help="worker processes (default: one per core)")
     parser.add_argument("--quiet", action="store_true", help="no progress")
     _add_set_option(parser)
+    _inputs(parser, scenes=["scene"])
+
+
+def _inputs(parser: argparse.ArgumentParser, paths: Sequence[str] = (), scenes: Sequence[str] = ()) -> None:
+    """Name a command's arguments that are input paths, checked to exist before any work (:func:`_check_inputs`).
+
+    ``scenes`` may be a bundled scene's name instead of a file.
+    """
+    parser.set_defaults(input_paths=tuple(paths), input_scenes=tuple(scenes))
+
+
+def _check_inputs(args) -> None:
+    """Refuse input paths that do not exist, one line each naming it (an unexpanded glob named as one)."""
+    from rollsim.validation import missing_path
+
+    problems: list[str] = []
+    for names, check in ((getattr(args, "input_paths", ()), missing_path),
+                         (getattr(args, "input_scenes", ()), _missing_scene)):
+        for name in names:
+            value = getattr(args, name, None)
+            for item in value if isinstance(value, list) else [value]:
+                problem = None if item is None else check(item)
+                if problem is not None:
+                    problems.append(problem)
+    if problems:
+        raise RollsimError(list(dict.fromkeys(problems)))
+
+
+def _missing_scene(scene: str) -> Optional[str]:
+    from rollsim.scene.bundled import missing_scene
+
+    return missing_scene(scene)
 
 
 def _check_repeated_keys(args) -> None:
@@ -328,14 +361,12 @@ def cmd_evaluate(args) -> int:
 
 
 def _png_paths(items: Sequence[str]) -> list[Path]:
-    """Files as given; a directory stands for its PNG frames."""
+    """Files as given (each checked to exist: :func:`_check_inputs`); a directory stands for its PNG frames."""
     from rollsim.decode import frame_files
 
     paths: list[Path] = []
     for item in items:
         path = Path(item)
-        if not os.path.lexists(path):  # an unexpanded glob (my_frames/*.png) is named, not counted
-            raise RollsimError(f"{clip(item, 120)}: no such file or directory")
         paths.extend(frame_files(path) if path.is_dir() else [path])
     return paths
 
@@ -379,7 +410,7 @@ def cmd_fit_camera(args) -> int:
     from rollsim.decode import frame_pixel_limit
     from rollsim.fit import compare, fit_camera
     from rollsim.fit.report import FILES, fit_outputs
-    from rollsim.outputs import check_directory_files, write_files_into
+    from rollsim.outputs import check_directory_files, write_files
     from rollsim.scene import load_scene
 
     if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
@@ -407,8 +438,8 @@ def cmd_fit_camera(args) -> int:
         comparison = compare(frames, fit)
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
-    write_files_into(out, {str(k): v for k, v in fit_outputs(out, fit, comparison, args.clock_hz,
-                                                             [str(p) for p in paths]).items()}, force=args.force)
+    write_files({str(k): v for k, v in fit_outputs(out, fit, comparison, args.clock_hz,
+                                                   [str(p) for p in paths]).items()}, force=args.force)
     est = fit.estimates
     print(f"row time {est['row_time_us'].value:.4f} us, exposure {est['exposure_us'].value:.1f} us, "
           f"ISO {est['iso'].value:.0f}, read noise {est['read_noise_e'].value:.2f} e-, "
@@ -521,8 +552,11 @@ def cmd_analytic(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    """Run a benchmark."""
-    return args.bench_main(args)
+    """Run a benchmark (its ``--out``'s missing parent folders made first, and removed if it fails)."""
+    from rollsim.outputs import parent_folders
+
+    with parent_folders([getattr(args, "out", None)]):
+        return args.bench_main(args)
 
 
 def _simulation_warning(text: str) -> None:
@@ -700,6 +734,7 @@ def _add_scene_commands(sub) -> None:
     _add_set_option(p)
     p.add_argument("--emissions", type=_non_negative_int, default=12, help="emissions of the schedule to list (default 12)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    _inputs(p, scenes=["scene"])
     p.set_defaults(func=cmd_describe)
 
 
@@ -731,6 +766,7 @@ def _add_pixel_commands(sub) -> None:
     _add_force(p, "existing decoded.jsonl and decode.json")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
+    _inputs(p, paths=["dir"], scenes=["scene"])
     p.set_defaults(func=cmd_decode)
 
     p = sub.add_parser("evaluate", help="outcome of every emitted PHY-SDU against the truth: DIR/outcomes.csv, DIR/evaluation.json")
@@ -744,6 +780,7 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--allow-other-run", action="store_true",
                    help="score decoded records that name another render too (with a warning)")
     _add_force(p, "existing outcomes.csv, evaluation.json and comparison.json")
+    _inputs(p, paths=["dir", "decoded", "against"])
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("estimate-row-time", help="row time of a camera from frames of a square-wave LED")
@@ -751,6 +788,7 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
     _add_json_file(p, "also write the estimate as JSON")
     _add_force(p)
+    _inputs(p, paths=["frames"])
     p.set_defaults(func=cmd_estimate_row_time)
 
     p = sub.add_parser("fit-camera", help="fit a camera, its ISP and the LED's image to real frames of a square-wave LED")
@@ -761,9 +799,11 @@ def _add_pixel_commands(sub) -> None:
                    help="base scene whose optics, LED geometry and distance are kept (default paper-geometric)")
     p.add_argument("--iterations", type=_non_negative_int, default=4,
                    help="rounds of refinement by rendering the fit (default 4; 0: direct estimates)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory: camera.yaml, fit.json, report.md")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output directory, made with its missing parents: camera.yaml, fit.json, report.md")
     _add_force(p, "existing camera.yaml, fit.json, report.md, profiles.png and frames.png")
     _add_set_option(p)
+    _inputs(p, paths=["frames"], scenes=["scene"])
     p.set_defaults(func=cmd_fit_camera)
 
     p = sub.add_parser("calibrate", help="fit MMBP (M, N, p_e) and Gilbert-Elliott models to an outcome trace")
@@ -772,6 +812,7 @@ def _add_pixel_commands(sub) -> None:
                    help="N_p of the whole-message comparison (default: the scene's, else 50)")
     _add_json_file(p, "also write every figure as JSON")
     _add_force(p)
+    _inputs(p, paths=["trace"])
     p.set_defaults(func=cmd_calibrate)
 
 
@@ -803,6 +844,7 @@ def _add_channel_commands(sub) -> None:
                    "with nbTxPhysdu, ..., simuParams)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
+    _inputs(p, scenes=["scene"])
     p.set_defaults(func=cmd_simulate)
 
 
@@ -815,7 +857,7 @@ def _add_sweep_command(sub) -> None:
                    help="keys varied together, equally many values each (repeatable)")
     p.add_argument("--stage", choices=("analytic", "simulate", "run", "envelope"), default=None,
                    help="analytic (no rendering), simulate (event simulator) or run (pixel pipeline); default analytic")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory, made with its missing parents")
     p.add_argument("--runs", type=_positive_int, default=None, help="simulate: runs per cell (default 1000)")
     p.add_argument("--channel", choices=("mmbp", "timed", "camcomsim"), default=None,
                    help="simulate: channel model (default mmbp)")
@@ -829,12 +871,13 @@ def _add_sweep_command(sub) -> None:
     _add_force(p, "a previous rollsim result in DIR")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
+    _inputs(p, scenes=["scene"])
     p.set_defaults(func=cmd_sweep)
 
 
 def _add_paper_command(sub) -> None:
     p = sub.add_parser("paper", help="every experiment of the reference paper through rollsim: paper.json and a report")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory, made with its missing parents")
     p.add_argument("--quick", action="store_true",
                    help="a reduced run (60 frames, 200 runs, the pixel pipeline on distances only): a few minutes")
     p.add_argument("--frames", type=_positive_int, default=None, help="frames per pixel setting (default 300; quick 60)")
@@ -860,6 +903,7 @@ def _add_bench_commands(sub) -> None:
             "each effect's cost, in-memory render + decode, start-up, peak memory")
     p.add_argument("--scene", default="paper-geometric", help="scene file or bundled scene name (default paper-geometric)")
     _add_set_option(p)
+    _inputs(p, scenes=["scene"])
     p.add_argument("--quick", action="store_true",
                    help="a rough check in a few minutes: 5 frames per figure, 3 per effect, one in-memory run of "
                    "10, one end-to-end run of 40, memory at 50 and 250 frames, one start-up run (options given "
@@ -898,6 +942,7 @@ def _add_bench_commands(sub) -> None:
 
     p = add("stress", "decoder outcome rates on the paper, stress and effect scenes (the table in docs/evaluation.md)")
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: every bundled paper-, stress- and effect- scene)")
+    _inputs(p, scenes=["scenes"])
     p.add_argument("--frames", type=_positive_int, default=100, help="frames per scene (default 100)")
     p.add_argument("--workers", type=_workers, default=2, help="scenes in parallel (default 2)")
     p.add_argument("--decoder", metavar="MODULE:FUNCTION", default=None,
@@ -941,6 +986,7 @@ def _add_bench_commands(sub) -> None:
     p = add("accuracy", "what accuracy costs: each fidelity setting against the most accurate one, in time, image "
             "error, noise distribution, decode outcomes and the MMBP fit; and each effect's cost")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
+    _inputs(p, scenes=["scene"])
     p.add_argument("--frames", type=_positive_int, default=30, help="frames per setting (default 30)")
     p.add_argument("--knobs", nargs="+", metavar="KNOB", default=None,
                    help="knobs to measure (default all: footprint_edge shot_noise read_noise blur_kernel "
@@ -1000,6 +1046,7 @@ def _run(args) -> int:
         # Every stage that connects (a sweep, the paper's, the envelope's) reads it there.
         os.environ[TIMEOUT_VAR] = repr(connect_timeout_s(args.connect_timeout))
     _check_repeated_keys(args)
+    _check_inputs(args)
     _check_outputs(args)
     return args.func(args)
 

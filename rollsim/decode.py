@@ -36,6 +36,7 @@ from rollsim.parallel import chunked, ordered_chunk_map
 from rollsim.protocol import PhyFormat
 from rollsim.records import run_identifier
 from rollsim.transmitter import phy_from_scene
+from rollsim.validation import missing_path
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -143,7 +144,7 @@ def frame_files(directory: Path) -> list[Path]:
     """
     directory = Path(directory)
     if not directory.is_dir():
-        raise RollsimError(f"{directory}: not a directory")
+        raise RollsimError(missing_path(directory) or f"{directory}: not a directory")
     sub = directory / "frames"
     folder = sub if sub.is_dir() else directory
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".png" and not p.name.startswith("."))

@@ -51,6 +51,7 @@ import numpy as np
 from rollsim.errors import RollsimError, clip, short_repr
 from rollsim.receiver import receive_message
 from rollsim.records import read_decoded, read_jsonl, run_identifier
+from rollsim.validation import missing_path
 
 OUTCOMES = ("ok", "undetected_error", "corrupted", "missed", "not_visible")
 OUTCOME_COLUMNS = ("tx", "sequence", "outcome", "success", "frame", "fully_visible", "decodes", "start_s", "end_s")
@@ -316,7 +317,7 @@ def score_directory(run_dir: Path, decoded_file: Path | None = None,
 
     run_dir = Path(run_dir)
     if not run_dir.is_dir():
-        raise RollsimError(f"{run_dir}: not a directory")
+        raise RollsimError(missing_path(run_dir) or f"{run_dir}: not a directory")
     scene_file = run_dir / "scene.resolved.yaml"
     if not scene_file.exists():
         raise RollsimError(f"{scene_file}: not found; evaluate needs a directory written by `rollsim render`")

@@ -15,6 +15,10 @@ Files (``--json``, ``--plot``, ``--markdown``, ``decoded.jsonl``, …)
     place by a hard link (which refuses to replace a file that appeared
     meanwhile) or, with ``--force``, a rename. Several files of one command
     are committed together: all of them or none.
+Parent folders
+    Missing folders above an output are made when it is written (as
+    ``mkdir -p`` does), and removed again, if still empty, when the command
+    fails.
 Replacing
     Without ``--force`` nothing is replaced. ``--force`` replaces a file, and
     a directory only if it holds nothing but a previous rollsim result: every
@@ -309,6 +313,32 @@ def _is_within(path: Path, root: Path) -> bool:
     return path == root or root in path.parents
 
 
+def _missing_folders(path: Path) -> list[Path]:
+    """The folders above ``path`` that do not exist, outermost first."""
+    missing: list[Path] = []
+    folder = Path(os.path.abspath(path)).parent
+    while not os.path.lexists(folder) and folder.parent != folder:
+        missing.insert(0, folder)
+        folder = folder.parent
+    return missing
+
+
+def _check_parent(path: Path, shown: Path) -> None:
+    """Refuse ``path`` (named ``shown``) where its folder cannot be made or written in.
+
+    The nearest folder above it that exists must be a directory rollsim may
+    write in; the missing ones below it are made when the output is written
+    (:func:`parent_folders`).
+    """
+    missing = _missing_folders(path)
+    existing = (missing[0] if missing else Path(os.path.abspath(path))).parent
+    if not existing.is_dir():
+        # Named as the user wrote it: afile/out: afile is not a directory.
+        named = next((p for p in Path(shown).parents if os.path.lexists(p)), existing)
+        raise OutputError(f"{shown}: {named} is not a directory")
+    _check_writable_dir(existing, shown)
+
+
 def _check_writable_dir(directory: Path, what: Path) -> None:
     """The OS's refusal to write in ``directory``, as a one-line failure."""
     try:
@@ -330,9 +360,10 @@ def check_directory_target(target: PathLike, force: bool = False, inputs: Iterab
     """Refuse an unusable output directory before any work.
 
     Refused: the working directory or a directory holding it, a directory
-    holding (or equal to) an input, a non-directory, a missing parent, a
-    non-empty directory without ``force``, and with ``force`` one that holds
-    anything but a previous rollsim result.
+    holding (or equal to) an input, a non-directory, a parent that cannot be
+    made (a file on the way), a non-empty directory without ``force``, and
+    with ``force`` one that holds anything but a previous rollsim result.
+    Missing parent folders are made when the output is written.
 
     Returns
     -------
@@ -353,9 +384,7 @@ def check_directory_target(target: PathLike, force: bool = False, inputs: Iterab
     for item in inputs:
         if item is not None and _is_within(_real_target(Path(item)), real):
             raise OutputError(f"{target}: holds the input {item}; give a directory apart from the inputs")
-    if not real.parent.is_dir():
-        raise OutputError(f"{target}: parent directory {real.parent} does not exist")
-    _check_writable_dir(real.parent, target)
+    _check_parent(real, target)
     if os.path.lexists(real):
         if not real.is_dir():
             raise OutputError(f"{target}: exists and is not a directory")
@@ -386,8 +415,8 @@ def check_file_targets(paths: Iterable[Optional[PathLike]], force: bool = False)
     Raises
     ------
     OutputError
-        A directory, a missing parent, the same file twice, or an existing
-        file without ``force`` (exit 2).
+        A directory, a parent that cannot be made (a file on the way), the
+        same file twice, or an existing file without ``force`` (exit 2).
     SystemFailure
         A directory the OS will not let rollsim write in (exit 1).
     """
@@ -401,11 +430,9 @@ def check_file_targets(paths: Iterable[Optional[PathLike]], force: bool = False)
             raise OutputError(f"{path}: given for two outputs")
         if real.is_dir():
             raise OutputError(f"{path}: is a directory; give a file name")
-        if not real.parent.is_dir():
-            raise OutputError(f"{path}: directory {real.parent} does not exist")
         if os.path.lexists(real) and not force:
             raise OutputError(f"{path}: exists; use --force to replace it")
-        _check_writable_dir(real.parent, path)
+        _check_parent(real, path)
         checked.append(path)
     return checked
 
@@ -517,6 +544,37 @@ def _replace_directory(staging: Path, target: Path, shown: Path) -> None:
     shutil.rmtree(old)
 
 
+@contextlib.contextmanager
+def parent_folders(paths: Iterable[Optional[PathLike]]):
+    """Make the missing folders above each of ``paths`` (as ``mkdir -p`` does) for the block.
+
+    When the block fails, the folders made here are removed again if they
+    are still empty: a command refused or failed on the way leaves no empty
+    folder behind, and nothing of anyone's is removed. ``None`` entries are
+    skipped.
+    """
+    made: list[Path] = []
+    try:
+        for path in paths:
+            if path is None:
+                continue
+            for folder in _missing_folders(Path(path)):
+                try:
+                    os.mkdir(folder)  # mode 0777 less the umask
+                except FileExistsError:
+                    continue  # made meanwhile by another run: not ours to remove
+                except OSError as exc:
+                    raise SystemFailure(describe_os_error(exc, target=Path(path))) from None
+                made.append(folder)
+        yield
+    except BaseException:
+        with signals.deferred():
+            for folder in reversed(made):
+                with contextlib.suppress(OSError):
+                    folder.rmdir()  # only if still empty
+        raise
+
+
 def create_directory(target: PathLike, force: bool = False, inputs: Iterable[PathLike] = (),
                      patterns: Iterable[str] = ()) -> Path:
     """Create an output directory that fills up as the work goes (a sweep's journal).
@@ -539,7 +597,7 @@ def create_directory(target: PathLike, force: bool = False, inputs: Iterable[Pat
     target = Path(target)
     real = check_directory_target(target, force, inputs)
     clear_stale(real)
-    with os_failures(target=target), signals.deferred():
+    with parent_folders([real]), os_failures(target=target), signals.deferred():
         if os.path.lexists(real) and any(real.iterdir()):
             old = _sibling(real, "old")
             os.rename(real, old)  # a previous rollsim result (checked): set aside, then removed
@@ -586,18 +644,19 @@ def staged_directory(target: PathLike, force: bool = False, inputs: Iterable[Pat
     real = check_directory_target(target, force, inputs)
     clear_stale(real)
     staging: Optional[Path] = None
-    try:
-        with os_failures(staging, target):
-            staging = _make_staging(real)
-        with os_failures(staging, target):
-            yield staging
-            write_manifest(staging)
-            _commit_directory(staging, real, force, target)
-    except BaseException:
-        if staging is not None and os.path.lexists(staging):
-            with signals.deferred():
-                shutil.rmtree(staging, ignore_errors=True)
-        raise
+    with parent_folders([real]):
+        try:
+            with os_failures(staging, target):
+                staging = _make_staging(real)
+            with os_failures(staging, target):
+                yield staging
+                write_manifest(staging)
+                _commit_directory(staging, real, force, target)
+        except BaseException:
+            if staging is not None and os.path.lexists(staging):
+                with signals.deferred():
+                    shutil.rmtree(staging, ignore_errors=True)
+            raise
 
 
 # --------------------------------------------------------------- files
@@ -747,24 +806,27 @@ def staged_files(targets: Iterable[Optional[PathLike]] = (), force: bool = False
     Parameters
     ----------
     targets : iterable of path
-        Checked up front with :func:`check_file_targets` (``None`` skipped).
+        Checked up front with :func:`check_file_targets` (``None`` skipped);
+        their missing folders are made (:func:`parent_folders`).
     force : bool
         Replace existing files.
     """
+    targets = list(targets)
     check_file_targets(targets, force)
     files = StagedFiles(force)
-    try:
+    with parent_folders(targets):
         try:
-            yield files
-            files.commit()
-        except _Appeared as exc:
-            raise files._keep_all(str(exc)) from None
-        except OSError as exc:
-            raise SystemFailure(f"{files.describe()}: {exc.strerror or exc}; nothing was written") from None
-    except BaseException:
-        with signals.deferred():
-            files.discard()
-        raise
+            try:
+                yield files
+                files.commit()
+            except _Appeared as exc:
+                raise files._keep_all(str(exc)) from None
+            except OSError as exc:
+                raise SystemFailure(f"{files.describe()}: {exc.strerror or exc}; nothing was written") from None
+        except BaseException:
+            with signals.deferred():
+                files.discard()
+            raise
 
 
 def write_file(path: PathLike, data: Union[str, bytes], force: bool = False) -> None:
@@ -784,8 +846,8 @@ def check_directory_files(directory: PathLike, names: Iterable[str], force: bool
     """Check, before any work, the files a command will write into ``directory``, which may not exist yet.
 
     A missing ``directory`` (and its missing parents) is made only when the
-    files are written (:func:`write_files_into`), so a command refused or
-    failed on the way leaves no empty folder behind.
+    files are written (:func:`write_files`), so a command refused or failed
+    on the way leaves no empty folder behind.
 
     Raises
     ------
@@ -793,43 +855,19 @@ def check_directory_files(directory: PathLike, names: Iterable[str], force: bool
         As :func:`check_file_targets`; ``directory`` a file.
     """
     directory = Path(directory)
-    paths = [directory / name for name in names]
     if os.path.lexists(directory) and not directory.is_dir():
         raise OutputError(f"{directory}: exists and is not a directory")
-    if directory.is_dir():
-        return check_file_targets(paths, force)
-    ancestor = _missing_parts(directory)[0].parent
-    if not ancestor.is_dir():
-        raise OutputError(f"{directory}: {ancestor} is not a directory")
-    _check_writable_dir(ancestor, directory)
-    return paths
-
-
-def _missing_parts(directory: PathLike) -> list[Path]:
-    """The folders of ``directory`` that do not exist, outermost first (at least ``directory`` itself)."""
-    missing = [Path(os.path.abspath(directory))]
-    while not os.path.lexists(missing[0].parent) and missing[0].parent != missing[0]:
-        missing.insert(0, missing[0].parent)
-    return missing
+    return check_file_targets([directory / name for name in names], force)
 
 
 def write_files_into(directory: PathLike, contents: dict, force: bool = False) -> None:
-    """:func:`write_files` into ``directory``, made first with its missing parents.
+    """:func:`write_files` of files in ``directory`` (named by the benchmarks' callers).
 
-    The directories made here are removed again when the files cannot be
-    written: a failed command leaves nothing behind.
+    :func:`write_files` makes the missing folders as it writes, and removes
+    them again when the files cannot be written: a failed command leaves
+    nothing behind.
     """
-    made = _missing_parts(directory) if not os.path.lexists(directory) else []
-    try:
-        with os_failures():
-            for folder in made:
-                folder.mkdir()
-        write_files(contents, force)
-    except BaseException:
-        for folder in reversed(made):
-            with contextlib.suppress(OSError):
-                folder.rmdir()  # only if still empty: nothing of anyone's is removed
-        raise
+    write_files(contents, force)
 
 
 def figure_png(draw: Callable[[object], None]) -> bytes:

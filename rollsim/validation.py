@@ -1,14 +1,19 @@
-"""Validation of numeric inputs, with one-line errors naming the parameter.
+"""Validation of numeric inputs, with one-line errors naming the parameter,
+and of input paths (:func:`missing_path`).
 
-Neutral (it imports nothing from rollsim): the channel analysis, the optics
-and the sensor models all check their public arguments with it.
+Neutral (it imports only :mod:`rollsim.errors`): the channel analysis, the
+optics and the sensor models all check their public arguments with it.
 """
 
 from __future__ import annotations
 
 import math
+import os
+from pathlib import Path
 
 import numpy as np
+
+from rollsim.errors import clip
 
 # Counts beyond 2**53 are no longer exact as float64, and the closed forms
 # multiply counts by logs; refusing them is clearer than silent rounding.
@@ -89,4 +94,48 @@ def unit_table_error(points, x_name: str, y_name: str) -> str | None:
         return "has a value that is not a finite number"
     if pts[0, 0] != 0.0 or pts[-1, 0] != 1.0 or np.any(np.diff(pts[:, 0]) <= 0):
         return f"{x_name} values must rise strictly from 0 to 1: start at 0, end at 1 and increase strictly"
+    return None
+
+
+# Characters that make a shell word a pattern: left as typed when it matched nothing.
+_GLOB_CHARS = frozenset("*?[")
+# The most characters of a path that a line quotes.
+_PATH_CHARS = 120
+
+
+def missing_path(path) -> str | None:
+    """The one-line refusal of an input path that does not exist, or None when it does.
+
+    A pattern the shell passed unexpanded because it matched nothing
+    (``my_frames/*.png``) is named as one: ``no file matches
+    my_frames/*.png``, with the folder it looks in when that is missing too.
+    A path the OS will not look up (too long, a NUL character, no
+    permission) is not called missing: None, for the reader to report.
+    """
+    text = os.fspath(path)
+    state = _lookup(text)
+    if state is None:
+        return None
+    shown = clip(text, _PATH_CHARS)
+    if _GLOB_CHARS.isdisjoint(text):
+        return f"{shown}: {state}"
+    folder = Path(text)
+    while folder.parent != folder and not _GLOB_CHARS.isdisjoint(str(folder)):
+        folder = folder.parent  # the part before the first pattern: where the shell looked
+    if str(folder) in ("", ".") or _lookup(str(folder)) is None:
+        return f"no file matches {shown}"
+    return f"no file matches {shown} ({clip(str(folder), _PATH_CHARS)} does not exist)"
+
+
+def _lookup(text: str) -> str | None:
+    """Why ``text`` names nothing (``does not exist``, a dangling link), or None when it names something
+    or the OS would not look it up."""
+    try:
+        os.stat(text)
+    except (FileNotFoundError, NotADirectoryError):
+        if os.path.islink(text):
+            return f"a symbolic link to {clip(os.readlink(text), _PATH_CHARS)}, which does not exist"
+        return "does not exist"
+    except (OSError, ValueError):
+        return None
     return None

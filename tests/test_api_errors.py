@@ -213,7 +213,7 @@ def test_a_path_names_a_scene_file(tmp_path):
     path = tmp_path / "mine.yaml"
     path.write_text(yaml.safe_dump(scene_to_dict(rs.load_scene(SCENE))))
     assert rs.load_scene(path).camera == rs.load_scene(str(path)).camera
-    with pytest.raises(RollsimError, match="not found"):
+    with pytest.raises(RollsimError, match="none.yaml: does not exist"):
         rs.load_scene(tmp_path / "none.yaml")
 
 

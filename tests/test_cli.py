@@ -149,5 +149,6 @@ def test_frames_that_do_not_exist_are_named(tmp_path, monkeypatch, capsys, comma
     # A glob the shell left unexpanded: named, not counted as one frame.
     monkeypatch.chdir(tmp_path)
     assert main(command) == 2
-    assert capsys.readouterr().err.splitlines() == ["rollsim: error: my_frames/*.png: no such file or directory"]
+    assert capsys.readouterr().err.splitlines() == [
+        "rollsim: error: no file matches my_frames/*.png (my_frames does not exist)"]
     assert list(tmp_path.iterdir()) == []

@@ -72,7 +72,7 @@ def test_bad_scene_files_are_one_line(tmp_path, capsys, monkeypatch, text, fragm
 def test_a_device_a_directory_and_a_huge_file_are_not_inputs(tmp_path, capsys, monkeypatch):
     _unchanged_around(tmp_path, capsys, ["validate", "/dev/zero"], 2, "/dev/zero: not a regular file")
     _unchanged_around(tmp_path, capsys, ["calibrate", "/dev/zero"], 2, "/dev/zero: not a regular file")
-    _unchanged_around(tmp_path, capsys, ["decode", tmp_path / "nope"], 2, "nope: not a directory")
+    _unchanged_around(tmp_path, capsys, ["decode", tmp_path / "nope"], 2, "nope: does not exist")
     _unchanged_around(tmp_path, capsys, ["describe", tmp_path], 2, "is a directory")
     big = tmp_path / "big.yaml"
     big.write_text("description: " + "x" * (2 << 20) + "\n")

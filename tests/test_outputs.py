@@ -130,8 +130,11 @@ def test_target_refusals_name_the_path(tmp_path, monkeypatch):
         outputs.check_directory_target(tmp_path / "inputs" / "scene.yaml", inputs=[tmp_path / "inputs" / "scene.yaml"])
     with pytest.raises(OutputError, match="exists and is not a directory"):
         outputs.check_directory_target(tmp_path / "scene.yaml")
-    with pytest.raises(OutputError, match="does not exist"):
-        outputs.check_directory_target(tmp_path / "no" / "such")
+    with pytest.raises(OutputError, match="scene.yaml is not a directory"):
+        outputs.check_directory_target(tmp_path / "scene.yaml" / "run")
+    # Missing parents are no refusal: they are made when the output is written.
+    assert outputs.check_directory_target(tmp_path / "no" / "such") == (tmp_path / "no" / "such").resolve()
+    assert not (tmp_path / "no").exists()
 
 
 def _dead_process() -> tuple[int, int]:
@@ -189,8 +192,10 @@ def test_file_outputs_refuse_to_replace_and_commit_all_or_none(tmp_path):
 def test_file_output_errors(tmp_path):
     with pytest.raises(OutputError, match="is a directory"):
         outputs.check_file_targets([tmp_path])
-    with pytest.raises(OutputError, match="does not exist"):
-        outputs.check_file_targets([tmp_path / "no" / "x.json"])
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(OutputError, match="file is not a directory"):
+        outputs.check_file_targets([tmp_path / "file" / "x.json"])
+    assert outputs.check_file_targets([tmp_path / "no" / "x.json"]) == [tmp_path / "no" / "x.json"]
     with pytest.raises(OutputError, match="given for two outputs"):
         outputs.check_file_targets([tmp_path / "x.json", tmp_path / "x.json"])
 

@@ -137,7 +137,7 @@ def test_exposure_longer_than_frame_is_an_error_equal_is_fine():
 
 
 def test_missing_file_is_named():
-    with pytest.raises(SceneError, match=r"nope.yaml: scene file not found"):
+    with pytest.raises(SceneError, match=r"nope.yaml: does not exist, as a file or a bundled scene"):
         load_scene("nope.yaml")
 
 

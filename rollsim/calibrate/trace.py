@@ -18,6 +18,7 @@ import numpy as np
 
 from rollsim.budget import check_file_size
 from rollsim.errors import RollsimError
+from rollsim.validation import missing_path
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -93,8 +94,8 @@ def read_trace_csv(path: Path) -> tuple[np.ndarray, np.ndarray | None]:
             if "success" not in fields and "outcome" not in fields:
                 raise RollsimError(f"{path}: needs a 'success' or 'outcome' column (has: {', '.join(fields) or 'none'})")
             rows = list(reader)
-    except FileNotFoundError:
-        raise RollsimError(f"{path}: not found") from None
+    except (FileNotFoundError, NotADirectoryError):
+        raise RollsimError(missing_path(path) or f"{path}: does not exist") from None
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise RollsimError(f"{path}: cannot read as CSV ({exc})") from None
     if not rows:

@@ -65,6 +65,7 @@ import numpy as np
 from rollsim.budget import check_memory
 from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, ChannelModel, _as_count
 from rollsim.parallel import default_workers, process_pool
+from rollsim.text_tables import Shown, quantity
 from rollsim.transmitter.schedule import RlncSchedule, Schedule
 
 __all__ = [
@@ -280,8 +281,8 @@ def _simulate_chunk(
     return table, per_run
 
 
-@dataclass(frozen=True)
-class BroadcastResult:
+@dataclass(frozen=True, repr=False)
+class BroadcastResult(Shown):
     """Per-run metrics of a simulated broadcast (see the module docstring).
 
     Attributes
@@ -335,6 +336,13 @@ class BroadcastResult:
     @property
     def runs(self) -> int:
         return int(self.emissions.size)
+
+    def _figures(self):
+        strategy = self.strategy.upper() + ("" if self.strategy == "rlnc" else f" r={self.repeats}")
+        goodput = float(np.mean(self.goodput_bps)) if self.runs else None
+        return "", [("channel", self.channel.get("kind", "?")), ("strategy", strategy), ("N_p", self.n_packets),
+                    ("runs", f"{self.runs} ({int(self.completed.sum())} completed)"),
+                    ("mean goodput", quantity(goodput, "bit/s")), ("seed", self.seed)]
 
     @property
     def rounds_started(self) -> np.ndarray:

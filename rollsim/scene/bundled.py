@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import difflib
 from importlib import resources
 from pathlib import Path
-from typing import Union
+from typing import Optional, Union
 
 from rollsim.errors import SceneError, clip
+from rollsim.validation import missing_path
 
 
 class SceneNameError(SceneError):
@@ -48,3 +50,24 @@ def resolve_scene_path(path: Union[str, Path]) -> Path:
         if bundled.exists():
             return bundled
     return candidate
+
+
+def missing_scene(scene: Union[str, Path]) -> Optional[str]:
+    """The one-line refusal of a scene that is neither a file nor a bundled scene's name, or None.
+
+    A bare name is looked up among the bundled scenes too, so the line says
+    so, with the nearest bundled name: ``paper-defualt: does not exist, as
+    a file or a bundled scene (did you mean paper-default? rollsim scenes
+    lists them)``. A name no file can have is left to the loader (None).
+    """
+    try:
+        path = resolve_scene_path(scene)
+    except SceneNameError:
+        return None
+    problem = missing_path(path)
+    if problem is None or path.parent != Path(".") or not problem.endswith(": does not exist"):
+        return problem
+    stem = path.name[:-5] if path.name.endswith(".yaml") else path.name
+    close = difflib.get_close_matches(stem, [p.stem for p in bundled_scene_paths()], n=1)
+    hint = f"did you mean {close[0]}? " if close else ""
+    return f"{problem}, as a file or a bundled scene ({hint}rollsim scenes lists them)"

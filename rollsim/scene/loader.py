@@ -27,6 +27,7 @@ from rollsim.effects.base import Effect
 from rollsim.errors import SceneError, clip, short_repr
 from rollsim.protocol import CRC8_MAX_DATA_BITS, min_header_bits, n_packets
 from rollsim.protocol.rlnc import seed_space
+from rollsim.scene.bundled import missing_scene
 from rollsim.scene.effects import normalise_effects
 from rollsim.scene.model import Scene, scene_model
 from rollsim.scene.presets import DEFAULT_PRESET, PRESETS
@@ -167,8 +168,8 @@ def _read_scene_text(path: Path) -> str:
     """A scene file's text: a regular file of at most :data:`MAX_SCENE_BYTES`, UTF-8."""
     try:
         info = path.stat()
-    except FileNotFoundError:
-        raise SceneError(f"{path}: scene file not found") from None
+    except (FileNotFoundError, NotADirectoryError):
+        raise SceneError(missing_scene(path) or f"{path}: does not exist") from None
     except OSError as exc:
         raise SceneError(f"{path}: cannot read scene file ({exc.strerror})") from None
     if stat.S_ISDIR(info.st_mode):

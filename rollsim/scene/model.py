@@ -15,6 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 from rollsim.effects import REGISTRY
 from rollsim.effects.base import Effect
 from rollsim.scene.effects import Effects, effects_model
+from rollsim.text_tables import Shown, quantity
 
 
 class _Section(BaseModel):
@@ -156,8 +157,12 @@ class Render(_Section):
     footprint_edge: Literal["exact", "supersample1", "supersample4", "supersample16"] = "exact"
 
 
-class Scene(_Section):
-    """A validated scene. Build it with :func:`rollsim.scene.load_scene`."""
+class Scene(Shown, _Section):
+    """A validated scene. Build it with :func:`rollsim.scene.load_scene`.
+
+    Its repr is one line of its key figures (camera, row time, exposure,
+    distance, clock, pattern), not its hundred fields.
+    """
 
     name: str = "scene"
     description: str = ""
@@ -170,6 +175,20 @@ class Scene(_Section):
     channel: Channel = Channel()
     render: Render = Render()
     effects: Effects = Effects()
+
+    def _figures(self):
+        camera, link = self.camera, self.link
+        pattern = link.pattern
+        if pattern == "data":
+            pattern = f"data ({link.strategy.upper()}" + ("" if link.strategy == "rlnc" else f" r={link.repeats}") + ")"
+        return repr(self.name), [
+            ("camera", f"{camera.width_px}x{camera.height_px} {camera.output}"),
+            ("row time", quantity(camera.row_time_s * 1e6, "µs")),
+            ("exposure", quantity(camera.exposure_us, "µs")),
+            ("distance", quantity(link.distance_cm, "cm")),
+            ("clock", quantity(link.clock_hz, "Hz")),
+            ("pattern", pattern),
+        ]
 
 
 def scene_model(registry: Optional[Sequence[Effect]] = None) -> type[Scene]:

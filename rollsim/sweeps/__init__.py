@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Callable, Optional, Union, cast
 
 from rollsim.sweeps.grid import Axis, Cell, parse_values
 from rollsim.sweeps.spec import DEFAULTS, STAGES, SweepSpec, spec_from_arguments, validate_cells
+from rollsim.text_tables import Shown
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -27,8 +28,8 @@ __all__ = ["Axis", "Cell", "STAGES", "SweepResult", "SweepSpec", "parse_values",
            "sweep", "validate_cells"]
 
 
-@dataclass
-class SweepResult:
+@dataclass(repr=False)
+class SweepResult(Shown):
     """What a sweep produced.
 
     Attributes
@@ -41,6 +42,8 @@ class SweepResult:
         Cells computed by this call (the others were committed before: ``--resume``).
     failed : int
         Cells whose status is ``error``.
+    stage : str
+        The stage each cell ran (``analytic``, ``simulate``, ...).
     """
 
     out_dir: Path
@@ -48,6 +51,18 @@ class SweepResult:
     columns: list
     computed: int
     failed: int
+    stage: str = ""
+
+    def _figures(self):
+        from rollsim.sweeps.table import STAGE_COLUMNS, TRAILING
+
+        figures = [("cells", f"{len(self.rows)} ({self.computed} computed now)"), ("ok", len(self.rows) - self.failed),
+                   ("failed", self.failed), ("in", self.out_dir)]
+        if self.stage not in STAGE_COLUMNS:
+            return "", figures
+        # The table's columns: cell, the swept keys, the stage's figures, the trailing ones.
+        swept = self.columns[1 : len(self.columns) - len(STAGE_COLUMNS[self.stage]) - len(TRAILING)]
+        return f"{self.stage} stage", [("over", ", ".join(swept) or "no key"), *figures]
 
     def to_dataframe(self):
         """The table as a pandas DataFrame (None where pandas is not installed)."""
@@ -232,7 +247,7 @@ def _finish(directory, resolved, spec: SweepSpec, computed: int, submit=None) ->
     files.update(report_files(plots, rows, axes, header, directory.path))
     (directory.path / "plots").mkdir(exist_ok=True)
     write_files(files, force=True)
-    return SweepResult(directory.shown, rows, columns, computed, failed)
+    return SweepResult(directory.shown, rows, columns, computed, failed, spec.stage)
 
 
 def sweep(scene: Union[str, Path, Scene], grid: Optional[dict] = None, stage: str = "analytic", *, zip: Optional[dict] = None,

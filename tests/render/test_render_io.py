@@ -83,10 +83,12 @@ def test_output_path_that_is_a_file_is_one_line(tmp_path, capsys):
     assert capsys.readouterr().err.splitlines() == [f"rollsim: error: {target}: exists and is not a directory"]
 
 
-def test_output_under_a_missing_parent_is_one_line(tmp_path, capsys):
+def test_output_under_a_file_is_one_line(tmp_path, capsys):
+    # Missing parents are made (tests/test_cli_paths.py); a file on the way cannot be.
+    (tmp_path / "no").write_text("x")
     out = tmp_path / "no" / "such" / "dir"
     assert main(["render", "paper-default", "--frames", "1", "--out", str(out), "--quiet", *SMALL]) == 2
-    assert len(capsys.readouterr().err.splitlines()) == 1 and not out.exists()
+    assert capsys.readouterr().err.splitlines() == [f"rollsim: error: {out}: {tmp_path / 'no'} is not a directory"]
 
 
 def test_bad_scene_writes_nothing(tmp_path, capsys):
