@@ -16,8 +16,8 @@ Its names are imported on first use, so that ``import rollsim`` stays light.
 
 from rollsim.version import __version__
 
-_API = ("Calibration", "Frame", "FrameTruth", "Frames", "MmbpModel", "Result", "SduTruth", "Truth",
-        "calibrate", "decode", "evaluate", "load_scene", "render", "simulate", "sweep")
+_API = ("AnnotatedFrame", "Calibration", "Frame", "FrameTruth", "Frames", "MmbpModel", "Result", "SduTruth", "Truth",
+        "calibrate", "decode", "evaluate", "load_scene", "render", "show", "simulate", "sweep")
 
 __all__ = ["__version__", *_API]
 

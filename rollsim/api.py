@@ -46,6 +46,7 @@ if TYPE_CHECKING:
     from rollsim.scene.model import Scene
 
 __all__ = [
+    "AnnotatedFrame",
     "Calibration",
     "Frame",
     "FrameTruth",
@@ -59,6 +60,7 @@ __all__ = [
     "evaluate",
     "load_scene",
     "render",
+    "show",
     "simulate",
     "sweep",
 ]
@@ -656,6 +658,111 @@ def _decoded(args: _Arguments, index: int, found, run_id: Optional[str] = None) 
         return [as_decoded_record(record, index, run_id) for record in found]
     except RollsimError as exc:  # a record off the schema: the decoder's fault, named so
         raise args.error("decoder", str(exc)) from None
+
+
+# --------------------------------------------------------------------- show
+
+
+class AnnotatedFrame:
+    """A frame drawn with its truth's PHY-SDUs by outcome and the rows a decoder read (:func:`show`).
+
+    A notebook shows it as an image (``_repr_png_``); ``image`` is the RGB
+    array, and :meth:`save` writes it as a PNG.
+
+    Attributes
+    ----------
+    image : ndarray, uint8, shape (H, W, 3)
+        RGB: the frame, then the truth's column and the decoder's, and a legend.
+    index : int or None
+        The frame's number, where known.
+    """
+
+    def __init__(self, image: np.ndarray, index: Optional[int]):
+        self.image = image
+        self.index = index
+
+    def __repr__(self) -> str:
+        height, width = self.image.shape[:2]
+        which = "" if self.index is None else f" of frame {self.index}"
+        return f"<AnnotatedFrame{which}: {width}x{height} px>"
+
+    def _repr_png_(self) -> bytes:
+        from rollsim.report.annotate import png_bytes
+
+        return png_bytes(self.image)
+
+    def save(self, path: Union[str, Path], force: bool = False) -> Path:
+        """Write the image as a PNG at ``path`` (atomically; an existing file only with ``force``)."""
+        from rollsim.outputs import write_files
+
+        args = _Arguments("AnnotatedFrame.save")
+        target = Path(args.path("path", path))
+        try:
+            write_files({target: self._repr_png_()}, force=args.flag("force", force))
+        except RollsimError as exc:
+            raise args.error("path", str(exc)) from None
+        return target
+
+
+def show(frame: Union[Frame, np.ndarray], truth: Union[FrameTruth, Mapping, None] = None,
+         decoded: Optional[Sequence[Mapping]] = None) -> AnnotatedFrame:
+    """A frame drawn with its LED's rows, its truth's PHY-SDUs by outcome and the rows a decoder read.
+
+    Beside the frame, a column of the truth's PHY-SDUs, each coloured by its
+    outcome in this frame (``ok`` green, ``undetected_error`` red,
+    ``corrupted`` orange, ``missed`` blue, ``not_visible`` grey), and a
+    column of the decoded records, each coloured by its verdict (magenta:
+    ``false``, a decode of no PHY-SDU); ``rollsim inspect`` draws the same
+    from a run directory (:mod:`rollsim.report.annotate`).
+
+    Parameters
+    ----------
+    frame : Frame or ndarray
+        A rendered :class:`Frame` (its truth is used when ``truth`` is not
+        given), or an image: grey (H, W) or RGB (H, W, 3), 8- or 16-bit.
+    truth : FrameTruth or mapping, optional
+        The frame's truth (a ``truth.jsonl`` record).
+    decoded : sequence of mapping, optional
+        Decoded records (``decoded.jsonl``'s, e.g. from :func:`decode`);
+        where the frame's number is known, only its own are drawn.
+
+    Returns
+    -------
+    AnnotatedFrame
+
+    Examples
+    --------
+    >>> import rollsim as rs
+    >>> frames = rs.render("paper-geometric", n_frames=1).materialise()
+    >>> rs.show(frames[0], decoded=rs.decode(frames, scene="paper-geometric"))  # doctest: +ELLIPSIS
+    <AnnotatedFrame of frame 0: ...x... px>
+    """
+    from rollsim.report.annotate import annotate
+
+    args = _Arguments("show")
+    if isinstance(frame, Frame):
+        image, index = frame.image, frame.index
+        truth = frame.truth if truth is None else truth
+    else:
+        _, image = _frame_image(args, 0, frame)
+        index = None
+    if isinstance(truth, FrameTruth):
+        record: Optional[dict] = truth.to_record()
+    elif truth is None:
+        record = None
+    else:
+        args.instance("truth", truth, Mapping, "a FrameTruth or a truth.jsonl record (dict)")
+        record = FrameTruth.from_record(truth).to_record()
+    if record is not None:
+        index = int(record["frame"]) if index is None else index
+    records = _decoded_records(args, decoded) if decoded is not None else []
+    if index is not None:
+        records = [r for r in records if r["frame"] == index]
+    try:
+        drawn = annotate(image, record, records)
+    except ValueError as exc:
+        raise args.error("frame", str(exc)) from None
+    return AnnotatedFrame(drawn, index)
 
 
 # ----------------------------------------------------------------- evaluate

@@ -360,6 +360,19 @@ def cmd_evaluate(args) -> int:
     return EXIT_OK
 
 
+def cmd_inspect(args) -> int:
+    """Draw one frame of a run with its truth's PHY-SDUs by outcome and the rows the decoder read."""
+    from rollsim.outputs import check_file_targets
+    from rollsim.report.annotate import inspect_run, png_bytes
+
+    check_file_targets([args.out], args.force)  # before the frame is read and drawn
+    decoded = Path(args.decoded) if args.decoded is not None else None
+    image = inspect_run(Path(args.dir), args.frame, decoded)
+    _write_outputs(args, {args.out: png_bytes(image)})
+    print(f"wrote {args.out}: frame {args.frame} of {args.dir} ({image.shape[1]}x{image.shape[0]} px)")
+    return EXIT_OK
+
+
 def _png_paths(items: Sequence[str]) -> list[Path]:
     """Files as given (each checked to exist: :func:`_check_inputs`); a directory stands for its PNG frames."""
     from rollsim.decode import frame_files
@@ -782,6 +795,17 @@ def _add_pixel_commands(sub) -> None:
     _add_force(p, "existing outcomes.csv, evaluation.json and comparison.json")
     _inputs(p, paths=["dir", "decoded", "against"])
     p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("inspect", help="one frame drawn with its truth's PHY-SDUs by outcome and the rows read")
+    p.add_argument("dir", metavar="DIR", help="a render directory (frames, truth.jsonl; decoded.jsonl if decoded)")
+    p.add_argument("--frame", type=_non_negative_int, default=0, help="the frame's number (default 0)")
+    p.add_argument("--out", required=True, metavar="FILE.png",
+                   help="the annotated frame (PNG), made with its missing parent folders")
+    p.add_argument("--decoded", metavar="FILE.jsonl", default=None,
+                   help="another decoder's records to draw (default: DIR/decoded.jsonl where it exists)")
+    _add_force(p, "an existing FILE.png")
+    _inputs(p, paths=["dir", "decoded"])
+    p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("estimate-row-time", help="row time of a camera from frames of a square-wave LED")
     p.add_argument("frames", nargs="+", metavar="FRAMES", help="PNG frames, or directories of them")

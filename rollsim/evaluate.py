@@ -75,7 +75,8 @@ class Evaluation:
     summary: dict
 
 
-def _truth_table(truth: list[dict]) -> dict[str, np.ndarray]:
+def truth_table(truth: list[dict]) -> dict[str, np.ndarray]:
+    """The truth records' PHY-SDUs as columns (frame, tx, first and last row, fully visible, sequence, bits)."""
     rows = [(t["frame"], s) for t in truth for s in t["sdus"]]
     return {
         "frame": np.array([f for f, _ in rows], dtype=np.int64),
@@ -118,7 +119,7 @@ def match_decodes(truth_rows: dict[str, np.ndarray], decoded: list[dict]) -> np.
     return np.where(ok, order[c], -1)
 
 
-def _verdicts(decodes: list[dict], sequences: list, bits: list) -> np.ndarray:
+def decode_verdicts(decodes: list[dict], sequences: list, bits: list) -> np.ndarray:
     """:data:`OUTCOMES` index of each decode against the PHY-SDU it matched (its sequence number and bits).
 
     ``corrupted`` if the check failed, else ``ok`` if sequence number and
@@ -145,7 +146,7 @@ def evaluate(truth: list[dict], decoded: list[dict], transmitter) -> Evaluation:
     transmitter : Transmitter
         The scene's transmitter, for the times of emissions no frame saw.
     """
-    rows = _truth_table(truth)
+    rows = truth_table(truth)
     matched = match_decodes(rows, decoded)
     false_decodes = [d for d, m in zip(decoded, matched.tolist()) if m < 0]
     outcomes: list[dict] = []
@@ -181,7 +182,7 @@ def _apply_decodes(rows: dict, decoded: list[dict], matched: np.ndarray, first_t
     decode_tx = rows["tx"][matched[hits]] - first_tx
     decodes = np.bincount(decode_tx, minlength=outcome.size)
     truth_index = matched[hits]
-    verdicts = _verdicts([decoded[i] for i in hits.tolist()], rows["sequence"][truth_index].tolist(),
+    verdicts = decode_verdicts([decoded[i] for i in hits.tolist()], rows["sequence"][truth_index].tolist(),
                          rows["bits"][truth_index].tolist())
     # Best verdict per emission (lowest OUTCOMES index), then its earliest frame.
     decode_frame = rows["frame"][matched[hits]]

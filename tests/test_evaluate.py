@@ -2,7 +2,7 @@
 
 import pytest
 
-from rollsim.evaluate import OUTCOMES, evaluate, format_summary, match_decodes, outcomes_csv, _truth_table
+from rollsim.evaluate import OUTCOMES, evaluate, format_summary, match_decodes, outcomes_csv, truth_table
 from rollsim.render import RenderPipeline
 from rollsim.scene import scene_from_dict
 
@@ -86,7 +86,7 @@ def test_best_verdict_wins_when_decoded_twice(rendered):
 
 def test_matching_uses_frame_and_rows(rendered):
     truth, _ = rendered
-    rows = _truth_table(truth)
+    rows = truth_table(truth)
     f0, s0 = _fully_visible(truth)[0]
     decoded = [_decode_of(s0, f0), _decode_of(s0, f0 + 1)]
     matched = match_decodes(rows, decoded)

@@ -2,6 +2,7 @@
 
 import json
 import re
+from pathlib import Path
 
 import cv2
 import pytest
@@ -28,6 +29,22 @@ def test_run_writes_every_stage_output(run_dir):
     calibration = json.loads((run_dir / "calibration.json").read_text())
     assert calibration["source"] == str(run_dir)
     assert set(calibration) >= {"mmbp", "ge", "prediction", "goodput_rp", "message", "run_lengths"}
+
+
+def test_report_defines_its_terms_and_names_where_the_docs_say_more(run_dir):
+    from rollsim.report import TERMS
+
+    report = (run_dir / "report.md").read_text()
+    assert "## Terms" in report
+    body = report[:report.index("## Terms")]
+    for outcome in ("ok", "undetected_error", "corrupted", "missed", "not_visible"):
+        assert f"| {outcome} |" in body  # the evaluation table uses it ...
+        assert f"| `{outcome}` |" in report  # ... and the terms define it
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    for term, _meaning, where in TERMS:
+        page, section = where.split(", ", 1)
+        text = (docs.parent / page).read_text(encoding="utf-8")
+        assert f"# {section}" in text or f"`{section.split('.')[-1]}`" in text, (term, where)
 
 
 def test_report_links_six_readable_plots(run_dir):

@@ -5,7 +5,8 @@ span (:func:`draw_cameras`); each renders square-wave frames, which
 :func:`rollsim.fit.fit_camera` fits (base scene ``paper-geometric``, as the
 command's default), and the fit is compared with the hidden truth and
 rendered beside the frames. A camera whose frames hold no readable square
-wave (:func:`readable`: under four stripe periods on the LED, or under
+wave (:func:`readable`: a stripe period under 2.5 binned rows, under four
+stripe periods on the LED, or under
 :data:`MIN_CONTRAST_8BIT` levels of stripe contrast in a frame rendered
 without noise) is listed and not counted.
 
@@ -33,7 +34,10 @@ BASE_SCENE = "paper-geometric"
 FRAMES = 6
 # Stripes below this contrast (8-bit levels, in a noise-free frame) hold no readable square wave.
 MIN_CONTRAST_8BIT = 6.0
-MIN_PERIODS = 4.0  # the row-time estimator needs 8 edges (decoder.rowtime.MIN_EDGES) in a frame
+# The row-time estimator needs 8 edges (decoder.rowtime.MIN_EDGES) in a
+# frame; four periods leave room for the disk's ends, where the chords are
+# too short to read.
+MIN_PERIODS = 4.0
 TARGETS = {"fitted_fraction": 0.90, "row_time": 0.005, "exposure": 0.10, "exposure_saturated": 0.15,
            "temporal_noise": 0.20, "correlation": 0.98, "median_seconds": 30.0}
 
@@ -157,12 +161,20 @@ def hidden_scene(cam: HiddenCamera, noise: bool = True):
 def readable(cam: HiddenCamera) -> tuple[bool, str]:
     """Whether the hidden camera's frames hold a readable square wave, and why not.
 
-    The LED must span :data:`MIN_PERIODS` stripe periods, and the stripes
+    The stripe period must span :data:`decoder.binning.MIN_GROUPS_PER_PERIOD`
+    binned rows (a shorter one aliases: sampled once a group, it cannot be
+    told from a period under two groups, and the row-time estimator
+    refuses it), the LED must span :data:`MIN_PERIODS` stripe periods, and the stripes
     must reach :data:`MIN_CONTRAST_8BIT` levels in a frame rendered without
     noise (:func:`stripe_contrast_8bit`): the frames' own contrast, after
     the clip, the ambient light on the LED's face, the colour filters, the
     tone curve, the ISP and JPEG, rather than the LED's level alone.
     """
+    from decoder.binning import MIN_GROUPS_PER_PERIOD
+
+    if cam.period_rows < MIN_GROUPS_PER_PERIOD * cam.binning_rows:
+        return False, (f"the stripe period spans {cam.period_rows / cam.binning_rows:.2f} binned rows "
+                       f"(< {MIN_GROUPS_PER_PERIOD:g}: aliased)")
     led_rows = min(cam.led_diameter_px, cam.height_px)
     if led_rows < MIN_PERIODS * cam.period_rows:
         return False, f"the LED spans {led_rows / cam.period_rows:.1f} stripe periods (< {MIN_PERIODS:g})"

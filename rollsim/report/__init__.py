@@ -107,6 +107,36 @@ def _calibration_lines(calibration: dict) -> list[str]:
     return lines
 
 
+# The report's terms, each defined where it is read and named by the page and
+# section of the documentation (docs/ in the repository) that says more.
+TERMS = (
+    ("ok", "decoded, the check passed, sequence number and payload right", "docs/evaluation.md, Evaluation"),
+    ("undetected_error", "decoded, the check passed, but the bits are wrong", "docs/evaluation.md, Evaluation"),
+    ("corrupted", "decoded, the check failed", "docs/evaluation.md, Evaluation"),
+    ("missed", "fully visible in some frame, not decoded", "docs/evaluation.md, Evaluation"),
+    ("not_visible", "never fully visible in a frame (sent wholly or partly outside the rows a frame sees), "
+     "not decoded", "docs/evaluation.md, Evaluation"),
+    ("false decode", "a decoded record that matches no emission (its middle row in no PHY-SDU's rows of its frame)",
+     "docs/evaluation.md, Evaluation"),
+    ("M, N", "the MMBP's ON and OFF slots per cycle of a frame period: an emission in an OFF slot is never "
+     "received", "docs/channel-models.md, Channel models"),
+    ("p_e", "the probability that an emission in an ON slot is lost all the same; with its 95 % interval",
+     "docs/channel-models.md, Channel models"),
+    ("aligned", "the MMBP fitted with each emission's start placed within its frame period (per-frame alignment), "
+     "as rendered data allows", "docs/calibration.md, Calibration"),
+    ("RP r", "Repeat Packet: each packet sent r times in a row, then the next, cycling over the message "
+     "(RS r: the whole sequence r times)", "docs/scenes.md, link.strategy"),
+    ("AIC, BIC", "the models' information criteria; the lower is selected", "docs/calibration.md, Calibration"),
+    ("replayed", "the scene's strategy replayed over the decoded outcome trace, from many starts",
+     "docs/calibration.md, Calibration"),
+)
+
+
+def _terms_lines() -> list[str]:
+    return markdown_table([(f"`{term}`", meaning, where) for term, meaning, where in TERMS],
+                          ("term", "meaning", "more in"))
+
+
 def _timing_lines(timings: dict, n_frames: int) -> list[str]:
     rows = [(stage, f"{seconds:.2f}", f"{1e3 * seconds / max(1, n_frames):.1f}") for stage, seconds in timings.items()]
     return markdown_table(rows, ("stage", "seconds", "ms per frame"))
@@ -185,4 +215,5 @@ def _report_lines(scene: Scene, evaluation, calibration: dict | None, timings: d
     lines += ["## Plots", ""]
     for title, path in figures:
         lines += [f"### {title}", "", f"![{title}]({PLOTS_DIR}/{path.name})", ""]
+    lines += ["## Terms", ""] + _terms_lines() + [""]
     return lines
