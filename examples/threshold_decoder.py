@@ -67,7 +67,7 @@ def decode(image: np.ndarray, settings) -> list[dict]:
     ----------
     image : ndarray
         The frame (8-bit gray, or colour).
-    settings : rollsim.decode.DecodeSettings
+    settings : rollsim.stages.decode.DecodeSettings
         ``phy`` (the PHY-SDU format), ``clock_hz`` and ``row_time_s``.
     """
     if settings.clock_hz is None or settings.row_time_s is None:

@@ -39,8 +39,8 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Mapping, Op
 import numpy as np
 
 from rollsim.errors import ApiArgumentError, ApiTypeError, ApiValueError, RollsimError, clip, short_repr
-from rollsim.text_tables import Shown, quantity
-from rollsim.validation import MAX_COUNT
+from rollsim.plumbing.text_tables import Shown, quantity
+from rollsim.plumbing.validation import MAX_COUNT
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -586,10 +586,10 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
         scene (required for arrays).
     decoder : callable, optional
         ``decoder(image, settings) -> iterable of records``, ``settings`` a
-        :class:`rollsim.decode.DecodeSettings` (``phy``, ``clock_hz``,
+        :class:`rollsim.stages.decode.DecodeSettings` (``phy``, ``clock_hz``,
         ``row_time_s``); a record is a :class:`decoder.DecodedPhySdu` or a
         dict with the fields of ``decoded.jsonl`` (checked against its
-        schema, :mod:`rollsim.records`). Default: rollsim's.
+        schema, :mod:`rollsim.stages.records`). Default: rollsim's.
 
     Returns
     -------
@@ -607,8 +607,8 @@ def decode(frames: Union[Frames, Iterable], scene: Union[str, Path, "Scene", Non
     []
     """
     from decoder.io import FrameError
-    from rollsim.decode import settings_from_scene
-    from rollsim.records import scene_run_identifier
+    from rollsim.stages.decode import settings_from_scene
+    from rollsim.stages.records import scene_run_identifier
 
     args = _Arguments("decode")
     args.iterable("frames", frames, "Frames (from rollsim.render), or an iterable of Frame or of image arrays")
@@ -635,21 +635,26 @@ def _frame_image(args: _Arguments, number: int, item) -> tuple[int, np.ndarray]:
     """The index and image of item ``number`` of ``frames``: a Frame, or an array numbered ``number``."""
     if isinstance(item, Frame):
         return item.index, item.image
+    return number, _image_array(args, f"frames[{number}]", item)
+
+
+def _image_array(args: _Arguments, name: str, item) -> np.ndarray:
+    """Argument ``name`` as an image array (2-D gray or 3-D colour, of numbers)."""
     expected = "a Frame or an image array (2-D gray or 3-D colour, of numbers)"
     try:
         image = np.asarray(item)
     except (TypeError, ValueError):  # a ragged list
-        raise args.refuse(f"frames[{number}]", expected, item, ApiValueError) from None
+        raise args.refuse(name, expected, item, ApiValueError) from None
     if image.dtype.kind not in "buif":
-        raise args.refuse(f"frames[{number}]", expected, item)
+        raise args.refuse(name, expected, item)
     if image.ndim not in (2, 3):
-        raise args.refuse(f"frames[{number}]", expected, item, ApiValueError)
-    return number, image
+        raise args.refuse(name, expected, item, ApiValueError)
+    return image
 
 
 def _decoded(args: _Arguments, index: int, found, run_id: Optional[str] = None) -> list[dict]:
     """A decoder's finds in frame ``index`` as ``decoded.jsonl`` records, each checked against the schema."""
-    from rollsim.records import as_decoded_record
+    from rollsim.stages.records import as_decoded_record
 
     expected = "decoder(image, settings) to return an iterable of records"
     if isinstance(found, (str, bytes, Mapping)) or not isinstance(found, Iterable):
@@ -693,7 +698,7 @@ class AnnotatedFrame:
 
     def save(self, path: Union[str, Path], force: bool = False) -> Path:
         """Write the image as a PNG at ``path`` (atomically; an existing file only with ``force``)."""
-        from rollsim.outputs import write_files
+        from rollsim.plumbing.outputs import write_files
 
         args = _Arguments("AnnotatedFrame.save")
         target = Path(args.path("path", path))
@@ -744,15 +749,17 @@ def show(frame: Union[Frame, np.ndarray], truth: Union[FrameTruth, Mapping, None
         image, index = frame.image, frame.index
         truth = frame.truth if truth is None else truth
     else:
-        _, image = _frame_image(args, 0, frame)
-        index = None
+        image, index = _image_array(args, "frame", frame), None
     if isinstance(truth, FrameTruth):
         record: Optional[dict] = truth.to_record()
     elif truth is None:
         record = None
     else:
         args.instance("truth", truth, Mapping, "a FrameTruth or a truth.jsonl record (dict)")
-        record = FrameTruth.from_record(truth).to_record()
+        try:
+            record = FrameTruth.from_record(truth).to_record()
+        except ApiArgumentError as exc:  # named as this call's argument
+            raise args.error("truth", str(exc).split(": record: ", 1)[-1]) from None
     if record is not None:
         index = int(record["frame"]) if index is None else index
     records = _decoded_records(args, decoded) if decoded is not None else []
@@ -783,10 +790,10 @@ class Result(Shown):
     """
 
     def __init__(self, evaluation, truth: Truth):
-        from rollsim.evaluate import Evaluation
+        from rollsim.stages.evaluate import Evaluation
 
         args = _Arguments("Result")
-        args.instance("evaluation", evaluation, Evaluation, "an Evaluation (from rollsim.evaluate.evaluate)")
+        args.instance("evaluation", evaluation, Evaluation, "an Evaluation (from rollsim.stages.evaluate.evaluate)")
         args.instance("truth", truth, Truth, "a Truth (from Frames.truth)")
         self.outcomes = evaluation.outcomes
         self.false_decodes = evaluation.false_decodes
@@ -822,7 +829,7 @@ class Result(Shown):
         """The outcomes as a table (needs pandas)."""
         import pandas as pd
 
-        from rollsim.evaluate import OUTCOME_COLUMNS
+        from rollsim.stages.evaluate import OUTCOME_COLUMNS
 
         return pd.DataFrame(self.outcomes, columns=list(OUTCOME_COLUMNS))
 
@@ -851,7 +858,7 @@ def evaluate(truth: Union[Truth, Frames], decoded: Sequence[Mapping]) -> Result:
     >>> result.counts["ok"] <= result.summary["fully_visible"]
     True
     """
-    from rollsim.evaluate import evaluate as run
+    from rollsim.stages.evaluate import evaluate as run
     from rollsim.transmitter import transmitter_from_scene
 
     args = _Arguments("evaluate")
@@ -864,7 +871,7 @@ def evaluate(truth: Union[Truth, Frames], decoded: Sequence[Mapping]) -> Result:
 
 def _decoded_records(args: _Arguments, decoded) -> list[dict]:
     """``decoded`` as ``decoded.jsonl`` records, each checked against the schema (as ``rollsim evaluate`` does)."""
-    from rollsim.records import record_error
+    from rollsim.stages.records import record_error
 
     records = []
     for number, item in enumerate(args.iterable("decoded", decoded, "a sequence of decoded.jsonl records (dicts)")):

@@ -116,7 +116,7 @@ def _inputs(parser: argparse.ArgumentParser, paths: Sequence[str] = (), scenes: 
 
 def _check_inputs(args) -> None:
     """Refuse input paths that do not exist, one line each naming it (an unexpanded glob named as one)."""
-    from rollsim.validation import missing_path
+    from rollsim.plumbing.validation import missing_path
 
     problems: list[str] = []
     for names, check in ((getattr(args, "input_paths", ()), missing_path),
@@ -155,14 +155,14 @@ def _file_outputs(args) -> list:
 
 def _check_outputs(args) -> None:
     """Refuse unusable output files before any work."""
-    from rollsim.outputs import check_file_targets
+    from rollsim.plumbing.outputs import check_file_targets
 
     check_file_targets(_file_outputs(args), getattr(args, "force", False))
 
 
 def _write_outputs(args, contents: dict) -> None:
     """Write the command's output files, all or none (``{path: text or bytes}``)."""
-    from rollsim.outputs import write_files
+    from rollsim.plumbing.outputs import write_files
 
     contents = {path: data for path, data in contents.items() if path}
     if contents:
@@ -195,7 +195,7 @@ def _load_scene_args(args):
 
 
 def _default_workers() -> int:
-    from rollsim.parallel import default_workers
+    from rollsim.plumbing.parallel import default_workers
 
     return default_workers()
 
@@ -234,7 +234,7 @@ def cmd_validate(args) -> int:
 
 def cmd_describe(args) -> int:
     """Print a scene's timing, PHY-SDU, schedule and waveform summary."""
-    from rollsim.describe import describe_scene, format_description
+    from rollsim.stages.describe import describe_scene, format_description
 
     scene = _load_scene_args(args)
     # The text shows the scene's own strategy only: no rlnc figures (and no
@@ -288,7 +288,7 @@ def cmd_render(args) -> int:
 def _decode_settings(args, run_dir: Path):
     """Decode settings: --scene, else the render's scene.resolved.yaml, else
     the default link (--set overrides) with --clock-hz / --row-time-us."""
-    from rollsim.decode import DecodeSettings, settings_from_scene
+    from rollsim.stages.decode import DecodeSettings, settings_from_scene
     from rollsim.scene import load_scene, scene_from_dict
     from rollsim.transmitter import phy_from_scene
 
@@ -312,7 +312,7 @@ def cmd_decode(args) -> int:
     """Decode the frames of a directory into DIR/decoded.jsonl."""
     from tqdm import tqdm
 
-    from rollsim.decode import decode_directory, frame_files
+    from rollsim.stages.decode import decode_directory, frame_files
 
     run_dir = Path(args.dir)
     n_files = len(frame_files(run_dir))  # first: a missing directory is named as such
@@ -320,7 +320,7 @@ def cmd_decode(args) -> int:
     if args.decoder is not None:
         from dataclasses import replace
 
-        from rollsim.decode import load_decoder
+        from rollsim.stages.decode import load_decoder
 
         load_decoder(args.decoder)  # here first: a wrong name fails before any frame
         settings = replace(settings, decoder=args.decoder)
@@ -340,8 +340,8 @@ def cmd_decode(args) -> int:
 
 def cmd_evaluate(args) -> int:
     """Give every emitted PHY-SDU its outcome; write outcomes.csv and evaluation.json."""
-    from rollsim.evaluate import evaluate_directory, format_summary
-    from rollsim.outputs import is_staging
+    from rollsim.stages.evaluate import evaluate_directory, format_summary
+    from rollsim.plumbing.outputs import is_staging
 
     if is_staging(Path(args.dir)):
         raise RollsimError(f"{args.dir}: the staging area of an unfinished run; evaluate a finished render directory")
@@ -353,7 +353,7 @@ def cmd_evaluate(args) -> int:
         print(f"rollsim: warning: {warning}", file=sys.stderr)
     print(format_summary(result.summary))
     if against is not None:
-        from rollsim.compare import format_comparison
+        from rollsim.stages.compare import format_comparison
 
         print()
         print(format_comparison(json.loads((Path(args.dir) / "comparison.json").read_text(encoding="utf-8"))))
@@ -362,7 +362,7 @@ def cmd_evaluate(args) -> int:
 
 def cmd_inspect(args) -> int:
     """Draw one frame of a run with its truth's PHY-SDUs by outcome and the rows the decoder read."""
-    from rollsim.outputs import check_file_targets
+    from rollsim.plumbing.outputs import check_file_targets
     from rollsim.report.annotate import inspect_run, png_bytes
 
     check_file_targets([args.out], args.force)  # before the frame is read and drawn
@@ -375,7 +375,7 @@ def cmd_inspect(args) -> int:
 
 def _png_paths(items: Sequence[str]) -> list[Path]:
     """Files as given (each checked to exist: :func:`_check_inputs`); a directory stands for its PNG frames."""
-    from rollsim.decode import frame_files
+    from rollsim.stages.decode import frame_files
 
     paths: list[Path] = []
     for item in items:
@@ -388,7 +388,7 @@ def cmd_estimate_row_time(args) -> int:
     """Row time of a camera from frames of an LED sending the square pattern."""
     from decoder import FrameReadError, RowTimeError, estimate_row_time, read_frame
 
-    from rollsim.decode import frame_pixel_limit
+    from rollsim.stages.decode import frame_pixel_limit
 
     if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
         raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
@@ -420,10 +420,10 @@ def cmd_fit_camera(args) -> int:
 
     from decoder import FrameReadError, RowTimeError, read_frame
 
-    from rollsim.decode import frame_pixel_limit
+    from rollsim.stages.decode import frame_pixel_limit
     from rollsim.fit import compare, fit_camera
     from rollsim.fit.report import FILES, fit_outputs
-    from rollsim.outputs import check_directory_files, write_files
+    from rollsim.plumbing.outputs import check_directory_files, write_files
     from rollsim.scene import load_scene
 
     if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
@@ -482,8 +482,8 @@ def cmd_run(args) -> int:
     """The main job: render, decode, evaluate, calibrate and report one scene."""
     from tqdm import tqdm
 
-    from rollsim.evaluate import format_summary
-    from rollsim.run import STAGES, run_scene
+    from rollsim.stages.evaluate import format_summary
+    from rollsim.report.run import STAGES, run_scene
 
     scene = _load_scene_args(args)
     n_frames = scene.frames
@@ -556,7 +556,7 @@ def cmd_analytic(args) -> int:
         for row in rows:
             writer.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in row.items()})
     if args.plot:
-        from rollsim.outputs import figure_png
+        from rollsim.plumbing.outputs import figure_png
 
         ratios = {(m, n): analytic_table(m, n, args.p_e, args.n_packets, r_values) for m, n in ratio_splits(args.M + args.N)}
         contents[args.plot] = figure_png(lambda f: plot_analytic(rows, args.M, args.N, args.p_e, args.n_packets, f, ratios))
@@ -566,7 +566,7 @@ def cmd_analytic(args) -> int:
 
 def cmd_bench(args) -> int:
     """Run a benchmark (its ``--out``'s missing parent folders made first, and removed if it fails)."""
-    from rollsim.outputs import parent_folders
+    from rollsim.plumbing.outputs import parent_folders
 
     with parent_folders([getattr(args, "out", None)]):
         return args.bench_main(args)
@@ -1057,7 +1057,7 @@ def _report(lines: Sequence[str]) -> None:
 
 
 def _run(args) -> int:
-    from rollsim.budget import DISK_ENV_VAR, ENV_VAR, parse_size
+    from rollsim.plumbing.budget import DISK_ENV_VAR, ENV_VAR, parse_size
 
     if args.memory_limit is not None:
         # In the environment, so that worker processes keep to it too.
@@ -1077,9 +1077,9 @@ def _run(args) -> int:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``rollsim`` console script."""
-    from rollsim import signals
-    from rollsim.budget import DISK_ENV_VAR, ENV_VAR
-    from rollsim.outputs import describe_os_error
+    from rollsim.plumbing import signals
+    from rollsim.plumbing.budget import DISK_ENV_VAR, ENV_VAR
+    from rollsim.plumbing.outputs import describe_os_error
 
     args = build_parser().parse_args(argv)
     # rollsim.sweeps.scheduler.ENV_VAR, named here: importing it loads rollsim.sweeps (0.2 s) for every command.

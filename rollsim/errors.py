@@ -88,7 +88,7 @@ class BudgetError(RollsimError):
     """An input would need more memory than the budget allows.
 
     Raised before the allocation, naming the field and the estimate (see
-    :mod:`rollsim.budget`).
+    :mod:`rollsim.plumbing.budget`).
     """
 
 
@@ -125,7 +125,7 @@ class CommitError(SystemFailure):
 
 
 class Interrupted(BaseException):
-    """SIGINT or SIGTERM reached the command (see :mod:`rollsim.signals`).
+    """SIGINT or SIGTERM reached the command (see :mod:`rollsim.plumbing.signals`).
 
     A :class:`BaseException`, like :class:`KeyboardInterrupt`, so that
     ``except Exception`` blocks do not swallow it and every ``finally`` and

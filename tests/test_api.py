@@ -13,7 +13,7 @@ import rollsim as rs
 from rollsim import api
 from rollsim.cli import main
 from rollsim.errors import SceneError
-from rollsim.evaluate import outcomes_csv
+from rollsim.stages.evaluate import outcomes_csv
 
 SCENE, FRAMES, SEED = "paper-default", 6, 3
 
@@ -35,12 +35,13 @@ def test_the_docstring_examples_run(module):
 
 def test_the_module_names_are_the_api_functions_too():
     import rollsim.calibrate
-    import rollsim.decode
-    import rollsim.evaluate
     import rollsim.render  # noqa: F401  (imported: the package attribute is now the module)
+    import rollsim.stages.decode
+    import rollsim.stages.evaluate  # noqa: F401  (their modules live below rollsim.stages, not beside rs.decode)
 
     for name in ("render", "decode", "evaluate", "calibrate"):
         assert callable(getattr(rs, name))
+    assert rs.decode is api.decode and rs.evaluate is api.evaluate
     assert len(rs.render(SCENE, n_frames=1)) == 1
     from rollsim.render import iter_frames  # the package is still the package
 

@@ -101,6 +101,14 @@ CASES = [
     ("FrameTruth.from_record", "record", lambda w: rs.FrameTruth.from_record(_record(start_s="x")), V),
     ("FrameTruth.from_record", "record", lambda w: rs.FrameTruth.from_record(_record(sdus=[{"tx": 1}])), V),
     ("FrameTruth.from_record", "record", lambda w: rs.FrameTruth.from_record(_record(sdus=None)), V),
+    ("show", "frame", lambda w: rs.show(None), T),
+    ("show", "frame", lambda w: rs.show(np.zeros(4, np.uint8)), V),
+    ("show", "frame", lambda w: rs.show(np.zeros((4, 4, 4), np.uint8)), V),
+    ("show", "truth", lambda w: rs.show(np.zeros((4, 4), np.uint8), truth=5), T),
+    ("show", "truth", lambda w: rs.show(np.zeros((4, 4), np.uint8), truth={"frame": 0}), V),
+    ("show", "decoded", lambda w: rs.show(np.zeros((4, 4), np.uint8), decoded=5), T),
+    ("show", "decoded[0]", lambda w: rs.show(np.zeros((4, 4), np.uint8), decoded=[{"frame": 0}]), V),
+    ("AnnotatedFrame.save", "path", lambda w: rs.show(np.zeros((4, 4), np.uint8)).save(None), T),
     ("decode", "frames", lambda w: rs.decode(None), T),
     ("decode", "frames", lambda w: rs.decode("frames"), T),
     ("decode", "frames", lambda w: rs.decode({"a": 1}, scene=SCENE), T),
@@ -184,7 +192,8 @@ def test_a_bad_argument_is_refused_by_name(world, clean, where, name, call, kind
 
 def test_every_public_function_and_method_has_a_case():
     functions = {name for name in api.__all__ if name[0].islower()}
-    methods = {"Frames", "Truth", "Result", "MmbpModel", "MmbpModel.p_message", "FrameTruth.from_record"}
+    methods = {"Frames", "Truth", "Result", "MmbpModel", "MmbpModel.p_message", "FrameTruth.from_record",
+               "AnnotatedFrame.save"}
     assert {case[0] for case in CASES} == functions | methods
 
 

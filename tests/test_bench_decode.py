@@ -6,7 +6,7 @@ import pytest
 
 from rollsim.bench.decode import bench_decode, format_decode
 from rollsim.bench.stress import HEADER, default_scenes, format_markdown
-from rollsim.stream import scene_outcomes
+from rollsim.sweeps.stream import scene_outcomes
 from rollsim.cli import main
 from rollsim.scene import load_scene
 

@@ -152,7 +152,7 @@ def test_a_sweep_makes_the_missing_folders_of_its_out(work, capsys):
 def test_a_benchmark_out_gets_its_folders_and_loses_them_when_it_fails(work, capsys, monkeypatch, fails):
     # The benchmark's own check of --out (rollsim.bench.accuracy.output_paths) meets the folders made.
     from rollsim.bench import accuracy
-    from rollsim.outputs import write_files_into
+    from rollsim.plumbing.outputs import write_files_into
 
     def bench(args) -> int:
         paths = accuracy.output_paths(Path(args.out), args.force)

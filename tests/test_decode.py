@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from rollsim.cli import main
-from rollsim.decode import decode_directory, frame_files, settings_from_scene
-from rollsim.evaluate import evaluate, read_jsonl
+from rollsim.stages.decode import decode_directory, frame_files, settings_from_scene
+from rollsim.stages.evaluate import evaluate, read_jsonl
 from rollsim.scene import load_scene
 from rollsim.bench.emitter_fit import FIG11_DISTANCES_CM, stripe_rows
 from rollsim.transmitter import transmitter_from_scene
@@ -407,7 +407,7 @@ def test_stripe_rows_of_a_dark_frame_are_none():
 def test_measuring_stripes_decodes_the_same():
     """DecodedRun with measure_stripes takes the PHY-SDUs from inspect_frame's one pass: the same records."""
     from rollsim.render import RenderPipeline
-    from rollsim.stream import DecodedRun
+    from rollsim.sweeps.stream import DecodedRun
 
     scene = load_scene(SCENE, ["link.distance_cm=10"])
     plain, measured = DecodedRun(RenderPipeline(scene)), DecodedRun(RenderPipeline(scene), measure_stripes=True)

@@ -24,7 +24,7 @@ Two kinds of scene:
 
 import pytest
 
-from rollsim.stream import scene_outcomes
+from rollsim.sweeps.stream import scene_outcomes
 from rollsim.scene import load_scene
 
 FLOORS = {"paper-geometric": 0.995, "paper-default": 0.93, "paper-10cm": 0.65}

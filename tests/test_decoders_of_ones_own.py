@@ -9,7 +9,7 @@ import pytest
 
 from rollsim.cli import main
 from rollsim.errors import RollsimError
-from rollsim.records import SCHEMA_VERSION, as_decoded_record, record_error, schema
+from rollsim.stages.records import SCHEMA_VERSION, as_decoded_record, record_error, schema
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = "examples.threshold_decoder:decode"

@@ -7,7 +7,7 @@ import os
 import pytest
 
 from clitools import SMALL, assert_one_error, run_rollsim
-from rollsim.budget import disk_budget_bytes, disk_margin_bytes, existing_ancestor
+from rollsim.plumbing.budget import disk_budget_bytes, disk_margin_bytes, existing_ancestor
 from rollsim.errors import RollsimError
 from rollsim.render.writer import frame_disk_bytes
 from rollsim.scene import load_scene

@@ -2,7 +2,7 @@
 
 import pytest
 
-from rollsim.evaluate import OUTCOMES, evaluate, format_summary, match_decodes, outcomes_csv, truth_table
+from rollsim.stages.evaluate import OUTCOMES, evaluate, format_summary, match_decodes, outcomes_csv, truth_table
 from rollsim.render import RenderPipeline
 from rollsim.scene import scene_from_dict
 

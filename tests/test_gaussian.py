@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rollsim.gaussian import standard_normal
+from rollsim.numerics.gaussian import standard_normal
 
 
 @pytest.mark.parametrize("method", ["exact", "table"])
@@ -34,7 +34,7 @@ def _all_words_of_bins(bins: np.ndarray, fine: np.ndarray) -> np.ndarray:
 
 
 def test_word_table_follows_the_normal_law():
-    from rollsim.gaussian import normal_from_words, normal_tables
+    from rollsim.numerics.gaussian import normal_from_words, normal_tables
 
     words = np.random.default_rng(5).integers(0, 2**32, size=2_000_000, dtype=np.uint64)
     z = normal_from_words(words, *normal_tables())
@@ -46,7 +46,7 @@ def test_word_table_follows_the_normal_law():
 def test_word_table_tails_are_the_quantiles_of_the_word_centres():
     """Every word of the two outermost bins maps to the normal quantile at its centre (w + 1/2)/2^32,
     so the tails reach +-6.34 sigma and mirror each other exactly."""
-    from rollsim.gaussian import normal_from_word, normal_from_words, normal_tables
+    from rollsim.numerics.gaussian import normal_from_word, normal_from_words, normal_tables
 
     tables = normal_tables()
     fine = np.arange(65536)
@@ -66,7 +66,7 @@ def test_tables_are_scipys_quantiles_to_the_bit():
     tables scipy.special.ndtri gives: every entry of all three."""
     from scipy.special import ndtri
 
-    from rollsim.gaussian import normal_tables
+    from rollsim.numerics.gaussian import normal_tables
 
     body, low, high = normal_tables()
     bins = np.arange(65536, dtype=np.float64)
@@ -78,7 +78,7 @@ def test_tables_are_scipys_quantiles_to_the_bit():
 def test_normal_quantile_is_ndtri_to_a_few_ulps():
     from scipy.special import ndtri
 
-    from rollsim.gaussian import normal_quantile
+    from rollsim.numerics.gaussian import normal_quantile
 
     rng = np.random.default_rng(7)
     # Every branch of AS241: the body (|p - 1/2| <= 0.425), the near and the far tails, and their edges.

@@ -1,4 +1,4 @@
-"""The genie-aided reference receiver (rollsim.genie): forward model, ML detection, rendered frames."""
+"""The genie-aided reference receiver (rollsim.stages.genie): forward model, ML detection, rendered frames."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from scipy.stats import binom
 
 from rollsim.api import load_scene
 from rollsim.bench.variants import NOISE_EFFECTS
-from rollsim.evaluate import evaluate
-from rollsim.genie import (
+from rollsim.stages.evaluate import evaluate
+from rollsim.stages.genie import (
     detect_chips,
     exposure_weights,
     flip_costs,

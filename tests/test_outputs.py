@@ -1,4 +1,4 @@
-"""rollsim.outputs: staging, commit, replacement, stale leftovers, modes."""
+"""rollsim.plumbing.outputs: staging, commit, replacement, stale leftovers, modes."""
 
 import json
 import os
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from rollsim import outputs
+from rollsim.plumbing import outputs
 from rollsim.errors import CommitError, OutputError, SystemFailure
 
 

@@ -1,10 +1,10 @@
-"""rollsim.parallel: results in order, and no worker started without a chunk to run."""
+"""rollsim.plumbing.parallel: results in order, and no worker started without a chunk to run."""
 
 from __future__ import annotations
 
 import os
 
-from rollsim.parallel import chunked, ordered_chunk_map
+from rollsim.plumbing.parallel import chunked, ordered_chunk_map
 
 INITIALIZED: list[str] = []
 

@@ -15,9 +15,9 @@ import pytest
 
 from clitools import assert_one_error
 from rollsim.cli import main
-from rollsim.decode import DecodeSettings, decode_directory, plugin_records, settings_from_scene
+from rollsim.stages.decode import DecodeSettings, decode_directory, plugin_records, settings_from_scene
 from rollsim.errors import Interrupted, RollsimError
-from rollsim.records import run_identifier
+from rollsim.stages.records import run_identifier
 from rollsim.scene import load_scene
 
 GOOD = "{'first_row': 1, 'last_row': 9, 'sequence': 0, 'bits': '0101010101010101010', 'check_ok': True}"
@@ -268,7 +268,7 @@ def test_a_pipe_for_a_resolved_scene_is_refused_not_waited_on(run_dir):
 
 
 def test_evaluate_refuses_records_of_another_render_unless_allowed(run_dir, tmp_path, capsys):
-    from rollsim.evaluate import evaluate_directory
+    from rollsim.stages.evaluate import evaluate_directory
 
     code, err = _decode(capsys, run_dir, "hostile_plugins:good", 1)
     assert code == 0, err
@@ -299,7 +299,7 @@ def test_evaluate_refuses_records_of_another_render_unless_allowed(run_dir, tmp_
 
 
 def test_the_run_is_the_scene_less_its_frame_count(run_dir, tmp_path):
-    from rollsim.records import scene_run_identifier
+    from rollsim.stages.records import scene_run_identifier
 
     scene = load_scene(run_dir / "scene.resolved.yaml")
     assert scene_run_identifier(scene) == run_identifier(run_dir)

@@ -1,4 +1,4 @@
-"""rollsim.portable_math against the C library, and the render's bits on every level of the CPU's SIMD.
+"""rollsim.numerics.portable_math against the C library, and the render's bits on every level of the CPU's SIMD.
 
 numpy's exp, log, power and arcsin, and OpenCV's float filters, take the
 widest SIMD code the CPU offers, and the levels round differently. numpy
@@ -20,7 +20,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from rollsim import portable_math as pm
+from rollsim.numerics import portable_math as pm
 
 from clitools import SMALL
 
@@ -128,7 +128,7 @@ SCENES = ("paper-default", "effect-isp", "effect-row_noise", "effect-blur", "eff
 PROGRAM = """
 import hashlib, json, sys
 import numpy as np
-from rollsim import portable_math as pm
+from rollsim.numerics import portable_math as pm
 from rollsim.render import RenderPipeline
 from rollsim.scene import load_scene
 

@@ -1,6 +1,6 @@
 """Reading records fast: the fast check is the schema's check, bad lines are found at once.
 
-The fast check of a decoded record (rollsim.records.is_decoded_record) must
+The fast check of a decoded record (rollsim.stages.records.is_decoded_record) must
 accept and refuse exactly what the jsonschema validator does, plus the values
 JSON cannot hold (NaN, infinities, anything json.dumps refuses): hypothesis
 generates records, valid and not, and compares the two.
@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from jsonschema import Draft202012Validator
 
 from rollsim.errors import RollsimError
-from rollsim.records import (MAX_DEPTH, MAX_VALUES, as_decoded_record, is_decoded_record, iter_jsonl, read_decoded,
+from rollsim.stages.records import (MAX_DEPTH, MAX_VALUES, as_decoded_record, is_decoded_record, iter_jsonl, read_decoded,
                              read_jsonl, record_error, schema)
 
 GOOD = {"frame": 1, "first_row": 10, "last_row": 120.5, "first_row_f": 9.5, "last_row_f": 121.0, "sequence": 3,
@@ -202,7 +202,7 @@ def _throughput(what: str, n: int, call) -> None:
 def test_benchmark_a_million_valid_records(tmp_path, monkeypatch):
     """read_decoded, and evaluate --decoded as a whole, on 1,000,000 records of rollsim's decoder."""
     from rollsim.cli import main
-    from rollsim.evaluate import evaluate_directory
+    from rollsim.stages.evaluate import evaluate_directory
 
     monkeypatch.setenv("ROLLSIM_MEMORY_LIMIT", "1T")
     run = tmp_path / "run"

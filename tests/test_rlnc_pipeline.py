@@ -6,7 +6,7 @@ import pytest
 import rollsim as rs
 from rollsim.errors import SceneError
 from rollsim.protocol.rlnc import combinations
-from rollsim.receiver import decodable_at, receive_message
+from rollsim.stages.receiver import decodable_at, receive_message
 from rollsim.transmitter import transmitter_from_scene
 
 RLNC = {"link.strategy": "rlnc"}

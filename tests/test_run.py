@@ -8,7 +8,7 @@ import cv2
 import pytest
 
 from rollsim.cli import main
-from rollsim.run import STAGES
+from rollsim.report.run import STAGES
 
 FAST = ["--set", "camera.width_px=480", "--workers", "1"]
 

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from pydantic import BaseModel
 
 from rollsim.cli import main
-from rollsim.describe import describe_scene
+from rollsim.stages.describe import describe_scene
 from rollsim.effects import REGISTRY
 from rollsim.errors import RollsimError, SceneError
 from rollsim.scene import Scene, read_yaml, resolve_scene_path, scene_from_dict

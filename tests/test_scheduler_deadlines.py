@@ -180,7 +180,7 @@ def test_a_second_signal_ends_a_clean_up_that_hangs(tmp_path):
     script = tmp_path / "hang.py"
     script.write_text(
         "import os, signal, sys, time\n"
-        "from rollsim import signals\n"
+        "from rollsim.plumbing import signals\n"
         "from rollsim.errors import Interrupted\n"
         "signals.install_handlers()\n"
         "try:\n"

@@ -6,7 +6,7 @@ imports), scipy.stats and scipy.signal each took a second or more of every
 command's start-up; rollsim reads V(λ) and the illuminants' photons per
 lumen from tables instead. Any part of SciPy 1.17 costs about 0.3 s more
 (its array-API layer imports numpy.testing and numpy.f2py): the normal
-tables are computed by AS241 (rollsim.gaussian) and the Poisson tables'
+tables are computed by AS241 (rollsim.numerics.gaussian) and the Poisson tables'
 log-factorials by cephes' own formulas (rollsim.sensor.special), the
 glare's convolution runs on scipy.fft's compiled module loaded alone, and
 only ``describe --json`` and RLNC scenes predict the rlnc figures with
@@ -49,7 +49,7 @@ def test_describe_and_render_do_not_import_what_they_do_not_use(tmp_path):
 # rlnc prediction, a compiled kernel, a progress bar, a plot).
 IMPORT_PROGRAM = """
 import json, sys
-import rollsim.cli, rollsim.describe, rollsim.render.pipeline, rollsim.scene, rollsim.channel.eventsim
+import rollsim.cli, rollsim.stages.describe, rollsim.render.pipeline, rollsim.scene, rollsim.channel.eventsim
 unused = {unused!r}
 print(json.dumps(sorted(n for n in sys.modules if any(n == u or n.startswith(u + ".") for u in unused))))
 """

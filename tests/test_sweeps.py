@@ -364,7 +364,7 @@ def test_report_has_a_plot_per_figure_for_any_number_of_axes(tmp_path, client, g
     assert {p.stem for p in plots} >= {"goodput_rp_bps", "p_message_rs", "M", "N", "roi_ratio"}
     assert all(p.read_bytes().startswith(b"\x89PNG") for p in plots)
     assert all(f"![{p.stem}](plots/{p.name})" in report for p in plots)
-    from rollsim.outputs import foreign_entries
+    from rollsim.plumbing.outputs import foreign_entries
 
     assert foreign_entries(tmp_path / "out") == []  # everything in it is the sweep's own
 

@@ -46,11 +46,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rollsim.text_tables import format_table, markdown_table
+from rollsim.plumbing.text_tables import format_table, markdown_table
 from rollsim.bench.common import machine, strict_floats
 from rollsim.bench.effect_cost import effect_cost, timed_pipeline
 from rollsim.bench.image_error import IMAGE_FIELDS, ImageError, data_range_of
-from rollsim.stream import DecodedRun, fitted_mmbp
+from rollsim.sweeps.stream import DecodedRun, fitted_mmbp
 from rollsim.bench.variants import (
     KNOBS,
     Knob,
@@ -508,7 +508,7 @@ def output_paths(out_dir: Path, force: bool) -> dict[str, Path]:
     ``out_dir`` may be missing (its parent must exist): it is created when
     the results are written.
     """
-    from rollsim.outputs import check_file_targets
+    from rollsim.plumbing.outputs import check_file_targets
 
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
@@ -523,7 +523,7 @@ def output_paths(out_dir: Path, force: bool) -> dict[str, Path]:
 
 def write_outputs(result: dict, paths: dict[str, Path], force: bool = False) -> None:
     """CSV tables, JSON, Markdown tables and the Pareto plot, committed together."""
-    from rollsim.outputs import figure_png, write_files_into
+    from rollsim.plumbing.outputs import figure_png, write_files_into
     from rollsim.report.plots import plot_accuracy_pareto
 
     write_files_into(next(iter(paths.values())).parent, {

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import cv2
 
-from rollsim.text_tables import format_table
+from rollsim.plumbing.text_tables import format_table
 from rollsim.bench.common import machine, seconds_per_call
 from rollsim.render import render_frames
 from rollsim.render.png import encode_png
 from rollsim.scene import load_scene
-from rollsim.decode import settings_from_scene
+from rollsim.stages.decode import settings_from_scene
 
 SCENES = ("paper-default", "paper-10cm", "stress-saturation")
 
@@ -70,7 +70,7 @@ def format_decode(result: dict) -> str:
 
 
 def main(args) -> int:
-    from rollsim.outputs import write_file
+    from rollsim.plumbing.outputs import write_file
 
     result = bench_decode(args.frames)
     print(format_decode(result))

@@ -23,7 +23,7 @@ import numpy as np
 from rollsim.channel.channels import camcomsim_roi
 from rollsim.render import RenderPipeline
 from rollsim.scene import load_scene
-from rollsim.stream import DecodedRun
+from rollsim.sweeps.stream import DecodedRun
 
 FIG11_DISTANCES_CM = (5, 10, 15, 20, 25, 30, 35, 40)
 
@@ -59,7 +59,7 @@ def stripe_rows(emitter: EmitterSet | None, distance_cm: float, frames: int, see
     """Mean over ``frames`` frames of the decoder's stripe rows over the frame's, told the exposure.
 
     ``emitter`` None keeps paper-default's own. Measured as ``rollsim
-    paper`` measures Fig. 11's rows (:class:`rollsim.stream.DecodedRun`).
+    paper`` measures Fig. 11's rows (:class:`rollsim.sweeps.stream.DecodedRun`).
     """
     overrides = [f"link.distance_cm={distance_cm}", *([] if emitter is None else emitter.overrides())]
     scene = load_scene("paper-default", [*overrides, *([] if seed is None else [f"seed={seed}"])])

@@ -4,7 +4,7 @@ Each *map* varies one physical quantity of a bundled scene, everything else
 fixed, and runs the sweep engine's ``envelope`` stage on every point
 (:func:`rollsim.sweeps.stages.envelope_row`): the same frames are read by
 rollsim's decoder and by the genie-aided reference receiver
-(:mod:`rollsim.genie`), and each one's ok fraction of the fully visible
+(:mod:`rollsim.stages.genie`), and each one's ok fraction of the fully visible
 PHY-SDUs comes with its 95 % Wilson interval. A map is a 1-D curve along its
 axis (:data:`MAPS`):
 
@@ -55,7 +55,7 @@ from typing import Callable, Optional, Sequence, cast
 
 from rollsim.bench.common import machine, strict_floats
 from rollsim.errors import OutputError, RollsimError
-from rollsim.text_tables import format_table, markdown_table
+from rollsim.plumbing.text_tables import format_table, markdown_table
 
 OK_LEVEL = 0.95
 FRAMES = 16
@@ -408,7 +408,7 @@ def output_names(maps: list[EnvelopeMap]) -> list[str]:
 
 def output_paths(out_dir: Path, maps: list[EnvelopeMap], force: bool) -> dict[str, Path]:
     """The output files in ``out_dir``; refuses existing ones without ``force`` (before any work)."""
-    from rollsim.outputs import check_file_targets
+    from rollsim.plumbing.outputs import check_file_targets
 
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
@@ -443,7 +443,7 @@ def format_markdown(result: dict) -> str:
 
 def write_outputs(result: dict, maps: list[EnvelopeMap], paths: dict[str, Path], force: bool = False) -> None:
     """Each map's CSV and PNG, and the boundary table, committed together."""
-    from rollsim.outputs import figure_png, write_files_into
+    from rollsim.plumbing.outputs import figure_png, write_files_into
     from rollsim.sweeps.table import csv_text
 
     contents: dict = {paths["envelope.md"]: format_markdown(result) + "\n",
@@ -490,7 +490,7 @@ def main(args) -> int:
         args.frames = QUICK_FRAMES if args.quick else FRAMES
     paths = output_paths(Path(args.out), maps, args.force) if args.out else None
     if args.json:
-        from rollsim.outputs import check_file_targets
+        from rollsim.plumbing.outputs import check_file_targets
 
         check_file_targets([args.json], args.force)
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
@@ -502,7 +502,7 @@ def main(args) -> int:
         write_outputs(result, maps, paths, force=args.force)
         print(f"wrote {len(paths)} files to {args.out}")
     if args.json:
-        from rollsim.outputs import write_file
+        from rollsim.plumbing.outputs import write_file
 
         write_file(args.json, json.dumps(result, indent=2, allow_nan=False) + "\n", force=args.force)
     return 0

@@ -29,7 +29,7 @@ import tracemalloc
 
 from rollsim.channel.channels import CamcomsimChannel
 from rollsim.channel.eventsim import default_event_workers, simulate_broadcast
-from rollsim.outputs import write_file
+from rollsim.plumbing.outputs import write_file
 from rollsim.transmitter.schedule import Schedule
 
 WORKLOAD: dict[str, Any] = {

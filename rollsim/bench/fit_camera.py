@@ -28,7 +28,7 @@ from typing import Sequence
 
 import numpy as np
 
-from rollsim.text_tables import format_table
+from rollsim.plumbing.text_tables import format_table
 
 BASE_SCENE = "paper-geometric"
 FRAMES = 6
@@ -346,7 +346,7 @@ def format_summary(s: dict) -> str:
 def main(args) -> int:
     import sys
 
-    from rollsim.outputs import write_file
+    from rollsim.plumbing.outputs import write_file
 
     def progress(row):
         if not args.quiet:

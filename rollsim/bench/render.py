@@ -5,7 +5,7 @@ beside its target (:data:`TARGETS`) where one exists:
 
 1. **stage profile** of the default-effects render: each stage of
    ``RenderPipeline(scene).stages`` called in turn on one
-   :class:`~rollsim.render.state.FrameState`, as ``run_stages`` does, each
+   :class:`~rollsim.render_contract.state.FrameState`, as ``run_stages`` does, each
    timed; the median per stage and of the frame's total. Nothing here
    depends on the stages' names, so fused or renamed stages profile alike.
    Also ``render`` itself (the stages plus the truth record) of the core
@@ -22,7 +22,7 @@ beside its target (:data:`TARGETS`) where one exists:
    ``effect-*`` scene that shows it (else its defaults). The heavy effects
    (:data:`HEAVY_EFFECTS`) have no target.
 4. **in-memory render + decode**, the pixel stage of a sweep
-   (:class:`rollsim.stream.DecodedRun`, no PNG): frames/s on one core, and
+   (:class:`rollsim.sweeps.stream.DecodedRun`, no PNG): frames/s on one core, and
    on N worker processes at once.
 5. **start-up**: wall seconds of ``rollsim render SCENE --frames 1`` and
    ``rollsim describe paper-default`` as fresh processes, median of a few.
@@ -52,8 +52,8 @@ import numpy as np
 
 from rollsim.bench.common import machine, one_opencv_thread, seconds_per_call, strict_floats
 from rollsim.bench.effect_cost import effect_cost
-from rollsim.outputs import write_file
-from rollsim.text_tables import format_table
+from rollsim.plumbing.outputs import write_file
+from rollsim.plumbing.text_tables import format_table
 
 if TYPE_CHECKING:
     from multiprocessing.synchronize import Barrier
@@ -128,7 +128,7 @@ def stage_profile(scene: Scene, frames: int, warmup: int = 1) -> dict:
     """Median ms per frame of each stage of ``scene``'s render pipeline, and of their total.
 
     The stages are called one by one on a fresh
-    :class:`~rollsim.render.state.FrameState` per frame, as
+    :class:`~rollsim.render_contract.state.FrameState` per frame, as
     ``RenderPipeline.run_stages`` calls them.
 
     Returns
@@ -140,7 +140,7 @@ def stage_profile(scene: Scene, frames: int, warmup: int = 1) -> dict:
         of each frame's sum over the stages).
     """
     from rollsim.render import RenderPipeline
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.state import FrameState
 
     pipeline = RenderPipeline(scene)
     stages = pipeline.stages
@@ -284,7 +284,7 @@ def in_memory_one_core(scene: Scene, frames: int) -> dict:
         and the median ``render_ms_per_frame`` and ``decode_ms_per_frame``.
     """
     from rollsim.render import RenderPipeline
-    from rollsim.stream import DecodedRun
+    from rollsim.sweeps.stream import DecodedRun
 
     run = DecodedRun(RenderPipeline(scene), measure_stripes=True)
     run.step(0)
@@ -311,7 +311,7 @@ def _init_in_memory_worker(scene: Scene, barrier: Barrier) -> None:
 
 def _in_memory_chunk(indices: list[int]) -> tuple[float, float]:
     """Step a chunk's frames once all workers are ready; (start, end) in monotonic seconds."""
-    from rollsim.stream import DecodedRun
+    from rollsim.sweeps.stream import DecodedRun
 
     run = DecodedRun(_WORKER["pipeline"], measure_stripes=True)
     run.step(indices[0])  # warm-up
@@ -331,7 +331,7 @@ def in_memory_workers_frames_per_s(scene: Scene, frames_per_worker: int, workers
     """
     import multiprocessing
 
-    from rollsim.parallel import process_pool
+    from rollsim.plumbing.parallel import process_pool
 
     barrier = multiprocessing.Barrier(workers, timeout=600)
     chunks = [list(range(w * frames_per_worker, (w + 1) * frames_per_worker)) for w in range(workers)]

@@ -1,7 +1,7 @@
 """``rollsim bench stress``: the decoder's outcome rates on the stress scenes.
 
 Each scene is rendered in memory, decoded and evaluated against its truth
-(:func:`rollsim.stream.scene_outcomes`), frame by frame in constant memory; scenes run in
+(:func:`rollsim.sweeps.stream.scene_outcomes`), frame by frame in constant memory; scenes run in
 parallel. The table it prints (``--markdown``) is the stress table of docs/evaluation.md.
 """
 
@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import json
 
-from rollsim.text_tables import format_table, markdown_table
+from rollsim.plumbing.text_tables import format_table, markdown_table
 from rollsim.bench.common import machine
-from rollsim.stream import scene_outcomes
-from rollsim.parallel import process_pool
+from rollsim.sweeps.stream import scene_outcomes
+from rollsim.plumbing.parallel import process_pool
 from rollsim.scene import bundled_scene_paths, load_scene, read_yaml
 
 # The scenes of the table by default: the paper's, the stress set and one
@@ -39,7 +39,7 @@ def bench_stress(scenes: list[str], n_frames: int, workers: int = 2, progress=No
     With ``other_decoder`` (``package.module:function``), each scene's
     frames are also decoded by it, and its summary is the row's ``other``.
     """
-    from rollsim.decode import load_decoder
+    from rollsim.stages.decode import load_decoder
 
     for name in scenes:
         load_scene(name)  # fail on a bad scene before any work
@@ -112,7 +112,7 @@ def format_markdown(result: dict) -> str:
 
 
 def main(args) -> int:
-    from rollsim.outputs import write_files
+    from rollsim.plumbing.outputs import write_files
 
     scenes = args.scenes or default_scenes()
     result = bench_stress(scenes, args.frames, args.workers, other_decoder=args.decoder)

@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 from rollsim.bench.common import machine
-from rollsim.text_tables import format_table
+from rollsim.plumbing.text_tables import format_table
 
 SCENE = "paper-geometric"
 ANALYTIC_GRID = ["link.distance_cm=5:54.5:0.5", "camera.exposure_us=10:1000:10"]
@@ -139,7 +139,7 @@ def format_sweep(result: dict) -> str:
 
 
 def main(args) -> int:
-    from rollsim.outputs import write_file
+    from rollsim.plumbing.outputs import write_file
 
     result = bench_sweep(frames=args.frames, repeats=args.repeats)
     print(format_sweep(result))

@@ -197,8 +197,8 @@ __all__ = [
 
 def format_calibration(result: dict) -> str:
     """The fitted parameters and the model comparison as plain text."""
-    from rollsim.text_tables import format_number as _number
-    from rollsim.text_tables import format_table
+    from rollsim.plumbing.text_tables import format_number as _number
+    from rollsim.plumbing.text_tables import format_table
 
     m, ge, mom = result["mmbp"], result["ge"], result["ge_moments"]
     lines = [
@@ -236,6 +236,6 @@ def format_calibration(result: dict) -> str:
 
 
 # rollsim.calibrate(...) is the Python API's function (rollsim.api).
-from rollsim.callable_module import make_callable  # noqa: E402
+from rollsim.plumbing.callable_module import make_callable  # noqa: E402
 
 make_callable(__name__)

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rollsim.budget import check_file_size
+from rollsim.plumbing.budget import check_file_size
 from rollsim.errors import RollsimError
-from rollsim.validation import missing_path
+from rollsim.plumbing.validation import missing_path
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -57,7 +57,7 @@ class Trace:
         Parameters
         ----------
         outcomes : list of dict
-            :attr:`rollsim.evaluate.Evaluation.outcomes` (``success``, ``start_s``).
+            :attr:`rollsim.stages.evaluate.Evaluation.outcomes` (``success``, ``start_s``).
         truth : iterable
             The frames' truth records, dicts or objects with ``start_s``.
         """
@@ -117,7 +117,7 @@ def load_trace(path, source: str | None = None) -> Trace:
 
     ``source`` names the trace in results (default: ``path``).
     """
-    from rollsim.records import read_jsonl
+    from rollsim.stages.records import read_jsonl
     from rollsim.scene import load_scene
 
     path = Path(path)

@@ -80,12 +80,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rollsim.budget import check_memory
+from rollsim.plumbing.budget import check_memory
 from rollsim.channel import phase_sweep
 from rollsim.errors import BudgetError
-from rollsim.validation import as_count as _as_count
-from rollsim.validation import as_positive as _as_positive
-from rollsim.validation import as_probability as _as_probability
+from rollsim.plumbing.validation import as_count as _as_count
+from rollsim.plumbing.validation import as_positive as _as_positive
+from rollsim.plumbing.validation import as_probability as _as_probability
 
 __all__ = [
     "MmbpSlots",
@@ -152,7 +152,7 @@ def _sweeps(C: int, emissions: int) -> bool:
     """Whether to average over phases by the sweep (True) or densely (False).
 
     Checks the chosen method's memory against the budget
-    (:mod:`rollsim.budget`), so that a cycle of 10**9 slots with few
+    (:mod:`rollsim.plumbing.budget`), so that a cycle of 10**9 slots with few
     emissions answers in O(emissions) memory, and one that neither method
     can afford is refused before it allocates.
     """

@@ -46,10 +46,10 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
-from rollsim.validation import as_count as _as_count
-from rollsim.validation import as_positive as _as_duration
-from rollsim.validation import as_probability as _as_probability
-from rollsim.gaussian import truncated_normal as _truncated_normal
+from rollsim.plumbing.validation import as_count as _as_count
+from rollsim.plumbing.validation import as_positive as _as_duration
+from rollsim.plumbing.validation import as_probability as _as_probability
+from rollsim.numerics.gaussian import truncated_normal as _truncated_normal
 
 __all__ = [
     "CAMCOMSIM_ROI_TABLE",

@@ -62,10 +62,10 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from rollsim.budget import check_memory
+from rollsim.plumbing.budget import check_memory
 from rollsim.channel.channels import DECODE_ERROR, GAP_LOSS, RECEIVED, ChannelModel, _as_count
-from rollsim.parallel import default_workers, process_pool
-from rollsim.text_tables import Shown, quantity
+from rollsim.plumbing.parallel import default_workers, process_pool
+from rollsim.plumbing.text_tables import Shown, quantity
 from rollsim.transmitter.schedule import RlncSchedule, Schedule
 
 __all__ = [
@@ -406,7 +406,7 @@ def check_broadcast_memory(runs: int, n_packets: int, workers: int, max_emission
 
     Raises
     ------
-    rollsim.budget.BudgetError
+    rollsim.plumbing.budget.BudgetError
         Naming ``runs``.
     """
     streak_bytes = runs * (max_emissions // 2) * _BYTES_PER_STREAK if record_loss_streaks else 0

@@ -129,7 +129,7 @@ def scene_led_rows(scene: Scene) -> tuple[int, int]:
 
 @functools.lru_cache(maxsize=64)
 def _readable_rows(model: type[Scene], scene_json: str) -> tuple[int, int]:
-    from rollsim.render.setup import build_setup  # here: the glare's setup is the renderer's
+    from rollsim.render_contract.setup import build_setup  # here: the glare's setup is the renderer's
     from rollsim.render.stages import prepare_setup
 
     rows = prepare_setup(build_setup(model.model_validate_json(scene_json))).led_rows

@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 from rollsim.effects.base import Effect, NoParams, StageRun, on_box
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 
 def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:

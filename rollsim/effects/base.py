@@ -9,14 +9,14 @@ gives under ``effects.<name>``), and what it does to the render:
   shares (a lens PSF reshapes the LED's coverage; vignetting makes the
   electron rates per-pixel maps);
 * ``build_stage``: ``(setup, params) -> run``, a function of one frame's
-  :class:`~rollsim.render.state.FrameState`, run in the effect's ``slot``
+  :class:`~rollsim.render_contract.state.FrameState`, run in the effect's ``slot``
   (:data:`SLOTS`, the EMVA 1288 order for the sensor);
 * ``check``: ``(scene, params) -> str or None``, why a scene cannot have
   the effect (the scene loader reports it as a line naming the field).
 
 Effects meet only through declared fields: a hook writes fields of
-:class:`~rollsim.render.setup.SceneSetup` and a stage reads and writes
-fields of :class:`~rollsim.render.state.FrameState` (a slotted dataclass, so
+:class:`~rollsim.render_contract.setup.SceneSetup` and a stage reads and writes
+fields of :class:`~rollsim.render_contract.state.FrameState` (a slotted dataclass, so
 an undeclared field is an error), never another effect's settings. ``reads``
 and ``writes`` name those fields (``"state.electrons"``,
 ``"setup.lens_kernels"``); a test checks that they exist.
@@ -33,14 +33,14 @@ from typing import TYPE_CHECKING, Any, Callable, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
-from rollsim.seeds import rng as named_rng
+from rollsim.numerics.seeds import rng as named_rng
 from rollsim.sensor.chain import ChainStep
 
 if TYPE_CHECKING:
     from rollsim.optics.footprint import Footprint
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
-    from rollsim.scene.model import Scene
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
+    from rollsim.scene_sections import SceneSections
 
 SLOTS = (
     "timing",  # frame start time (frame_jitter)
@@ -166,7 +166,7 @@ class Effect:
         step = self.chain_step(setup, params) if self.chain_step is not None else None
         return Stage(self.stage_name(params), self.slot, self.build_stage(setup, params), step)
 
-    def errors(self, scene: Scene, params: EffectParams, listed: frozenset) -> list[str]:
+    def errors(self, scene: SceneSections, params: EffectParams, listed: frozenset) -> list[str]:
         """Why ``scene`` cannot have this effect: its check, requirements and exclusions."""
         errors = [f"effects.{self.name}: {why}; list the {other} effect too"
                   for other, why in self.requires if other not in listed]
@@ -181,7 +181,7 @@ def on_box(rate: float | np.ndarray, fp: Footprint) -> float | np.ndarray:
     return rate[fp.rows, fp.cols] if isinstance(rate, np.ndarray) and rate.ndim else rate
 
 
-def identity_seed(scene: Scene) -> int:
+def identity_seed(scene: SceneSections) -> int:
     """The seed of the camera's fixed patterns: ``camera.identity_seed``, or the scene's seed."""
     seed = scene.camera.identity_seed
     return scene.seed if seed is None else seed
@@ -206,7 +206,7 @@ def isp_effect(name: str, params: type[EffectParams], slot: str,
     Refused (naming the field) unless ``camera.output`` is ``gray8`` or ``rgb8``.
     """
 
-    def check(scene: Scene, given: EffectParams) -> Optional[str]:
+    def check(scene: SceneSections, given: EffectParams) -> Optional[str]:
         if scene.camera.output not in ("gray8", "rgb8"):
             return f"effects.{name}: acts on 8-bit output; set camera.output to 'gray8' or 'rgb8'"
         return None

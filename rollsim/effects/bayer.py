@@ -23,7 +23,7 @@ from rollsim.optics.spectral import illuminant_electrons_per_lumen, led_electron
 from rollsim.sensor.cfa import cfa_channels
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 
 class Bayer(EffectParams):

@@ -13,8 +13,8 @@ from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.sensor.blooming import bloom
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 
 class Blooming(EffectParams):

@@ -15,7 +15,7 @@ from rollsim.effects.lens import with_lens_kernel
 from rollsim.optics.psf import gaussian_kernel_1d
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 
 class Blur(EffectParams):

@@ -17,8 +17,8 @@ from pydantic import Field
 from rollsim.effects.base import Effect, EffectParams, StageRun, fixed_pattern_rng
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 
 class ColumnFpn(EffectParams):

@@ -20,11 +20,11 @@ import numpy as np
 from pydantic import Field
 
 from rollsim.effects.base import Effect, EffectParams, StageRun, fixed_pattern_rng
-from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
+from rollsim.numerics.portable_math import exp  # numpy's differs in the last bit between CPUs
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 REFERENCE_TEMPERATURE_C = 25.0
 

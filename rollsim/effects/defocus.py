@@ -20,8 +20,8 @@ from rollsim.optics.psf import MAX_DISK_DIAMETER_PX, circle_of_confusion_m, defo
 from rollsim.optics.vignetting import image_distance_m
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.scene.model import Scene
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.scene_sections import SceneSections
 
 
 class Defocus(EffectParams):
@@ -36,7 +36,7 @@ class Defocus(EffectParams):
         return self.focus_distance_cm * 1e-2
 
 
-def check(scene: Scene, params: Defocus) -> str | None:
+def check(scene: SceneSections, params: Defocus) -> str | None:
     focal_length_mm = scene.camera.focal_length_mm
     if params.focus_distance_cm * 10.0 <= focal_length_mm:
         return (f"effects.defocus.focus_distance_cm = {params.focus_distance_cm:g}: the lens cannot "
@@ -44,7 +44,7 @@ def check(scene: Scene, params: Defocus) -> str | None:
     return None
 
 
-def defocus_diameter_px(scene: Scene, params: Defocus) -> float:
+def defocus_diameter_px(scene: SceneSections, params: Defocus) -> float:
     """The blur circle's diameter in pixels."""
     cam = scene.camera
     c_m = circle_of_confusion_m(cam.focal_length_mm * 1e-3, cam.f_number, scene.link.distance_m, params.focus_distance_m)

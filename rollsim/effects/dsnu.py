@@ -17,8 +17,8 @@ import numpy as np
 from rollsim.effects.base import Effect, NoParams, StageRun, fixed_pattern_map
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 
 def build_stage(setup: SceneSetup, params: NoParams) -> StageRun:

@@ -16,8 +16,8 @@ from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.sensor.flicker import flicker_row_factor
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 
 class Flicker(EffectParams):

@@ -15,9 +15,9 @@ from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.sensor.frame_jitter import TRUNCATION_SIGMAS, FrameJitter as JitterLaw, frame_margin_s, max_std_s
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
-    from rollsim.scene.model import Scene
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
+    from rollsim.scene_sections import SceneSections
 
 
 class FrameJitter(EffectParams):
@@ -34,7 +34,7 @@ def frame_jitter_error(camera, params: FrameJitter) -> str | None:
 
     Parameters
     ----------
-    camera : rollsim.scene.model.Camera
+    camera : rollsim.scene_sections.Camera
     params : FrameJitter
     """
     if params.std_us == 0:
@@ -50,7 +50,7 @@ def frame_jitter_error(camera, params: FrameJitter) -> str | None:
     )
 
 
-def check(scene: Scene, params: FrameJitter) -> str | None:
+def check(scene: SceneSections, params: FrameJitter) -> str | None:
     return frame_jitter_error(scene.camera, params)
 
 

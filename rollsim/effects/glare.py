@@ -18,7 +18,7 @@ from rollsim.effects.readable import readable_rows
 from rollsim.optics.glare import glare_core_px, glared_light
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 
 class Glare(EffectParams):

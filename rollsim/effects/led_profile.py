@@ -16,11 +16,11 @@ from pydantic import Field
 from rollsim.effects.base import Effect, EffectParams
 from rollsim.optics.emitter import profiled_light, radial_table_light
 from rollsim.optics.footprint import led_rows_from_coverage
-from rollsim.validation import unit_table_error
+from rollsim.plumbing.validation import unit_table_error
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.scene.model import Scene
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.scene_sections import SceneSections
 
 
 class LedProfile(EffectParams):
@@ -50,7 +50,7 @@ def radial_table_error(table) -> str | None:
     return None
 
 
-def check(scene: Scene, params: LedProfile) -> str | None:
+def check(scene: SceneSections, params: LedProfile) -> str | None:
     if params.profile == "table":
         if params.radial_table is None:
             return "effects.led_profile.radial_table: profile 'table' needs a radial_table"

@@ -14,8 +14,8 @@ from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.transmitter.led_response import exposure_exact, exposure_sampled
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 
 class LedRiseTime(EffectParams):

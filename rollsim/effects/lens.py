@@ -16,7 +16,7 @@ from rollsim.optics.footprint import led_rows_from_coverage
 from rollsim.optics.psf import blurred_footprint
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 
 def with_lens_kernel(setup: SceneSetup, kernel, **changes) -> SceneSetup:

@@ -18,8 +18,8 @@ from rollsim.optics.motion import motion_footprint, path_from_params
 from rollsim.optics.psf import blur_canvas, total_radius
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 
 class Motion(EffectParams):

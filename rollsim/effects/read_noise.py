@@ -7,12 +7,12 @@ from typing import TYPE_CHECKING, Literal, Optional
 import numpy as np
 
 from rollsim.effects.base import Effect, EffectParams, StageRun
-from rollsim.gaussian import standard_normal
+from rollsim.numerics.gaussian import standard_normal
 from rollsim.sensor.chain import ChainKeys, ChainStep, run_chain
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 STREAM = "read_noise"
 
@@ -23,7 +23,7 @@ class ReadNoise(EffectParams):
     ``method``: ``table`` draws each deviate from one 32-bit counter word
     through a 65,536-bin quantile table with quantile tails out to ±6.34σ
     (Kolmogorov distance 7.6e-6 from the normal;
-    :func:`rollsim.gaussian.normal_from_word`), in the sensor chain's one
+    :func:`rollsim.numerics.gaussian.normal_from_word`), in the sensor chain's one
     pass (:mod:`rollsim.sensor.chain`); ``exact`` uses numpy's Ziggurat.
     """
 

@@ -36,7 +36,7 @@ from rollsim.sensor.adc import full_scale_electrons
 
 if TYPE_CHECKING:
     from rollsim.optics.footprint import Footprint
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 # Contrast (ON–OFF gap over the noise sigma of a row) a row's stripes need to
 # be read; equal to decoder.binarize.MIN_CONTRAST_SIGMA (tested).

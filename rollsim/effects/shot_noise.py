@@ -3,7 +3,7 @@
 ``poisson`` draws the exact Poisson count of every pixel, whether pixels
 share a mean or each has its own (:mod:`rollsim.sensor.poisson`);
 ``gaussian`` its approximation N(μ, μ), μ + √μ·z with z from the normal
-word table (:func:`rollsim.gaussian.normal_from_word`). Both draw from the
+word table (:func:`rollsim.numerics.gaussian.normal_from_word`). Both draw from the
 frame's ``shot_noise`` stream through a counter-based generator, in the
 sensor chain's one pass when the stages after it allow
 (:mod:`rollsim.sensor.chain`).
@@ -17,8 +17,8 @@ from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.sensor.chain import ChainKeys, ChainStep, run_chain
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.render.state import FrameState
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.render_contract.state import FrameState
 
 STREAM = "shot_noise"
 

@@ -19,8 +19,8 @@ from rollsim.sensor.tone import ToneCurve as Curve
 from rollsim.sensor.tone import validate_table
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
-    from rollsim.scene.model import Scene
+    from rollsim.render_contract.setup import SceneSetup
+    from rollsim.scene_sections import SceneSections
 
 
 class ToneCurve(EffectParams):
@@ -38,7 +38,7 @@ class ToneCurve(EffectParams):
     table: Optional[list[list[float]]] = None
 
 
-def check(scene: Scene, params: ToneCurve) -> str | None:
+def check(scene: SceneSections, params: ToneCurve) -> str | None:
     if scene.camera.output not in ("gray8", "rgb8"):
         return "effects.tone_curve: applies to camera.output = 'gray8' or 'rgb8' only"
     if params.curve == "table":

@@ -16,7 +16,7 @@ from rollsim.effects.base import Effect, EffectParams
 from rollsim.optics.vignetting import cos4_map
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 
 class Vignetting(EffectParams):

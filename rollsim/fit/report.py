@@ -46,7 +46,7 @@ def profile_plot_png(comparison: Comparison, first_row: int) -> bytes:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from rollsim.outputs import figure_png
+    from rollsim.plumbing.outputs import figure_png
 
     real, sim = comparison.profile_pair
     rows = first_row + np.arange(real.size)

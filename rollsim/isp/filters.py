@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.jit import kernel
-from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
+from rollsim.numerics.jit import kernel
+from rollsim.numerics.portable_math import exp  # numpy's differs in the last bit between CPUs
 
 TRUNCATE_SIGMA = 4.0  # kernel radius in σ: 6.3e-5 of the mass cut, renormalised
 

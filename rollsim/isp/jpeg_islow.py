@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.jit import kernel
+from rollsim.numerics.jit import kernel
 
 # ITU-T T.81 Table K.1, the luminance quantisation table (row by row).
 LUMINANCE_TABLE = np.array([

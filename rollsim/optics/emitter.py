@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from rollsim.optics.footprint import Footprint
-from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
+from rollsim.numerics.portable_math import exp  # numpy's differs in the last bit between CPUs
 
 
 def profiled_light(fp: Footprint, centre_px: tuple[float, float], sigma_px: float) -> Footprint:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rollsim.portable_math import arcsin  # numpy's differs in the last bit between CPUs
+from rollsim.numerics.portable_math import arcsin  # numpy's differs in the last bit between CPUs
 
 EDGE_METHODS = ("exact", "supersample1", "supersample4", "supersample16")
 # A row counts as an LED row when the footprint covers at least this much

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from rollsim.scene.model import Scene
+    from rollsim.scene_sections import SceneSections
 
 
 def magnification(focal_length_m: float, distance_m: float) -> float:
@@ -63,13 +63,13 @@ def covered_rows(centre_y_px: float, height_px: float, frame_height_px: int) -> 
     return first, last
 
 
-def led_image_size_px(scene: Scene) -> float:
+def led_image_size_px(scene: SceneSections) -> float:
     """Size in pixels of the scene's LED image (diameter or side)."""
     cam = scene.camera
     return image_size_px(scene.led.size_mm * 1e-3, cam.focal_length_mm * 1e-3, scene.link.distance_m, cam.pixel_pitch_um * 1e-6)
 
 
-def led_centre_px(scene: Scene) -> tuple[float, float]:
+def led_centre_px(scene: SceneSections) -> tuple[float, float]:
     """``(x, y)`` pixel coordinates of the LED image centre (default: frame centre)."""
     if scene.led.position_px is not None:
         x, y = scene.led.position_px
@@ -77,7 +77,7 @@ def led_centre_px(scene: Scene) -> tuple[float, float]:
     return 0.5 * scene.camera.width_px, 0.5 * scene.camera.height_px
 
 
-def led_rows(scene: Scene) -> tuple[int, int]:
+def led_rows(scene: SceneSections) -> tuple[int, int]:
     """First and last frame row the scene's LED footprint touches (see :func:`covered_rows`)."""
     _, y = led_centre_px(scene)
     return covered_rows(y, led_image_size_px(scene), scene.camera.height_px)

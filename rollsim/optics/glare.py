@@ -35,7 +35,7 @@ rounds differently (another FFT library, another transform size) moves a
 few pixels of a glare scene's frames by one level. The transforms are
 therefore SciPy's pocketfft, as scipy.fft runs them, loaded without
 scipy.fft's 0.3 s of imports; the kernel's powers are portable
-(:mod:`rollsim.portable_math`), and the kernel, even in both axes, is laid
+(:mod:`rollsim.numerics.portable_math`), and the kernel, even in both axes, is laid
 out around the origin of a circular convolution, so that its transform is
 real and the light's spectrum is scaled component by component: one
 rounded product each, the same on every CPU, where a complex product's
@@ -54,8 +54,8 @@ from typing import Any
 import numpy as np
 
 from rollsim.optics.footprint import Footprint
-from rollsim.portable_math import power
-from rollsim.validation import as_positive
+from rollsim.numerics.portable_math import power
+from rollsim.plumbing.validation import as_positive
 
 
 def glare_core_px(core_angle_deg: float, focal_length_m: float, pixel_pitch_m: float) -> float:

@@ -9,7 +9,7 @@ per axis:
 ``random_walk``
     A walk reflected at ±A: free knots X_k = X_{k−1} + δ_k at the nominal
     frame starts t = k·T_f (X_0 = 0, δ_k ~ Normal(0, step) per axis, drawn
-    from a per-scene stream, :mod:`rollsim.frame_sequence`), joined by straight
+    from a per-scene stream, :mod:`rollsim.numerics.frame_sequence`), joined by straight
     lines, and folded into [−A, A] by the triangle wave
     fold(X) = A − |((X + A) mod 4A) − 2A|. Folding the free walk is the same
     as reflecting every step at the bounds (up to the sign of the steps,
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rollsim.optics.footprint import Footprint, footprint_per_row
-from rollsim.frame_sequence import FrameSequence
+from rollsim.numerics.frame_sequence import FrameSequence
 
 STREAM = "motion"
 

@@ -50,8 +50,8 @@ import math
 import numpy as np
 
 from rollsim.optics.footprint import Footprint, footprint
-from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
-from rollsim.validation import as_positive
+from rollsim.numerics.portable_math import exp  # numpy's differs in the last bit between CPUs
+from rollsim.plumbing.validation import as_positive
 
 KERNEL_METHODS = ("separable", "full")
 # The largest blur circle rollsim convolves, in pixels: a larger one would

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from rollsim.optics.photopic import photopic_efficiency
-from rollsim.validation import as_positive, as_probability, check_nonnegative
+from rollsim.plumbing.validation import as_positive, as_probability, check_nonnegative
 
 PLANCK_J_S = 6.62607015e-34
 LIGHT_SPEED_M_S = 299792458.0

@@ -22,7 +22,7 @@ from rollsim.optics.radiometry import (
 )
 
 if TYPE_CHECKING:
-    from rollsim.scene.model import Scene
+    from rollsim.scene_sections import SceneSections
 
 
 def led_emitting_area_m2(size_m: float, shape: str) -> float:
@@ -30,7 +30,7 @@ def led_emitting_area_m2(size_m: float, shape: str) -> float:
     return math.pi * (0.5 * size_m) ** 2 if shape == "disk" else size_m**2
 
 
-def led_sensor_illuminance_lx(scene: Scene) -> float:
+def led_sensor_illuminance_lx(scene: SceneSections) -> float:
     """Sensor-plane illuminance of the LED's image at level 1 (ON), on axis."""
     cam, led = scene.camera, scene.led
     m = magnification(cam.focal_length_mm * 1e-3, scene.link.distance_m)
@@ -38,7 +38,7 @@ def led_sensor_illuminance_lx(scene: Scene) -> float:
     return sensor_illuminance_lx(luminance, cam.f_number, cam.lens_transmission, m)
 
 
-def led_electron_rate(scene: Scene) -> float:
+def led_electron_rate(scene: SceneSections) -> float:
     """Electrons per second in a pixel fully covered by the LED at level 1 (ON)."""
     cam, led = scene.camera, scene.led
     illuminance = led_sensor_illuminance_lx(scene)
@@ -46,7 +46,7 @@ def led_electron_rate(scene: Scene) -> float:
     return cast(float, cam.qe * photons)  # a scalar: scalar illuminance and photons per lumen
 
 
-def ambient_sensor_illuminances_lx(scene: Scene) -> tuple[float, float]:
+def ambient_sensor_illuminances_lx(scene: SceneSections) -> tuple[float, float]:
     """Sensor-plane illuminance of ambient light, on axis: (background, LED face).
 
     The background is Lambertian with ``environment.background_reflectance``
@@ -66,7 +66,7 @@ def ambient_sensor_illuminances_lx(scene: Scene) -> tuple[float, float]:
     return illuminance(env.background_reflectance, m), illuminance(scene.led.face_reflectance, m)
 
 
-def ambient_electron_rates(scene: Scene) -> tuple[float, float]:
+def ambient_electron_rates(scene: SceneSections) -> tuple[float, float]:
     """Electrons per second per pixel from ambient light: (background, LED face)
     (see :func:`ambient_sensor_illuminances_lx`)."""
     cam = scene.camera

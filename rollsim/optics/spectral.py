@@ -16,7 +16,7 @@ Spectra, all from colour-science:
 * LED: the Ohno (2005) single-LED model at ``led.peak_wavelength_nm``,
   (g + 2g⁵)/3 with g = exp(−((λ − λ_p)/Δλ)²), as ``colour.sd_single_led``
   defines it, computed here with the portable exponential
-  (:mod:`rollsim.portable_math`) so that its bits do not depend on the
+  (:mod:`rollsim.numerics.portable_math`) so that its bits do not depend on the
   CPU. Its width Δλ is not the full width at half maximum: the model's
   FWHM is 0.9218·Δλ, so a requested FWHM is divided by
   :data:`OHNO_FWHM_PER_WIDTH` first.
@@ -45,7 +45,7 @@ from functools import lru_cache
 import numpy as np
 
 from rollsim.optics.radiometry import K_M_LM_PER_W, LIGHT_SPEED_M_S, PLANCK_J_S, photons_per_lumen_monochromatic
-from rollsim.portable_math import exp, log
+from rollsim.numerics.portable_math import exp, log
 
 CAMERA_SENSITIVITIES = {
     "nikon_5100": "Nikon 5100 (NPL)",

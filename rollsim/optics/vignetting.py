@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.validation import as_positive
+from rollsim.plumbing.validation import as_positive
 
 
 def image_distance_m(focal_length_m: float, magnification: float) -> float:

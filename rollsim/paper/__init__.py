@@ -131,7 +131,7 @@ def run_paper(out: Path, options: PaperOptions, *, workers: Optional[int] = None
     list of dict
         The ``paper.json`` document: one row per comparison.
     """
-    from rollsim.outputs import staged_directory
+    from rollsim.plumbing.outputs import staged_directory
     from rollsim.paper.report import paper_document, write_report
     from rollsim.sweeps.engine import DaskEngine
 

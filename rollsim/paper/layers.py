@@ -51,7 +51,7 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
     """The pixel pipeline on ``paper-default`` with ``overrides``, ``frames`` frames, in memory.
 
     Goodput is the scene's strategy replayed over the decoded outcome
-    trace (for rlnc, the receiver's: :mod:`rollsim.receiver`); throughput is ``(H + P)`` bits per correctly decoded PHY-SDU
+    trace (for rlnc, the receiver's: :mod:`rollsim.stages.receiver`); throughput is ``(H + P)`` bits per correctly decoded PHY-SDU
     over the frames' duration, and ``throughput_bound_bps`` the most that
     whole PHY-SDUs in the measured ROI allow
     (:func:`rollsim.channel.analytic.throughput_bound_bps`); the ROI ratio is the mean fraction of rows

@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 from rollsim.paper.experiments import DISTANCES_CM, ROI_MEASURED
-from rollsim.text_tables import format_number, markdown_table
+from rollsim.plumbing.text_tables import format_number, markdown_table
 
 READINGS = (
     "Fig. 14–17 use 'a 24 bits length PHY-SDU' with P = 19, H = 5: the length is P + H. Fig. 17's axis is read "
@@ -138,7 +138,7 @@ def report_text(document: list, result: dict, options, command: str) -> str:
 
 def write_report(directory: Path, document: list, result: dict, options, command: str) -> None:
     """Write ``paper.json``, ``report.md`` and the two plots into ``directory`` (a staging directory)."""
-    from rollsim.outputs import figure_png
+    from rollsim.plumbing.outputs import figure_png
 
     (directory / "paper.json").write_text(json.dumps(document, indent=1, allow_nan=False) + "\n")
     (directory / "roi_distance.png").write_bytes(figure_png(lambda f: plot_roi(result, f)))

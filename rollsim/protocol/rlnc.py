@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.counter_rng import GAMMA, mix64
+from rollsim.numerics.counter_rng import GAMMA, mix64
 from rollsim.protocol.gf2 import gf2_matmul
 
 def _splitmix64(x: np.ndarray) -> np.ndarray:

@@ -7,10 +7,10 @@ from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
-from rollsim.budget import check_memory
-from rollsim.render.setup import SceneSetup, build_setup
+from rollsim.plumbing.budget import check_memory
+from rollsim.render_contract.setup import SceneSetup, build_setup
 from rollsim.render.stages import Stage, assemble_stages, fuse_chain, prepare_setup
-from rollsim.render.state import FrameState
+from rollsim.render_contract.state import FrameState
 from rollsim.render.truth import frame_truth
 
 if TYPE_CHECKING:
@@ -83,7 +83,7 @@ class RenderPipeline:
     Raises
     ------
     BudgetError
-        A frame too large for the memory budget (:mod:`rollsim.budget`).
+        A frame too large for the memory budget (:mod:`rollsim.plumbing.budget`).
     """
 
     def __init__(self, scene: Scene, fuse: bool = True):

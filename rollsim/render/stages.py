@@ -33,7 +33,7 @@ from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_cha
 from rollsim.sensor.means import SeparableMeans
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 __all__ = ["SLOTS", "Stage", "assemble_stages", "fuse_chain", "prepare_setup"]
 

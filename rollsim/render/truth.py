@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 
 def _bit_strings(bits: np.ndarray) -> list[str]:

@@ -15,10 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Iterator, Optional
 
-from rollsim.jit import numpy_only
+from rollsim.numerics.jit import numpy_only
 from rollsim.version import __version__
-from rollsim.outputs import staged_directory
-from rollsim.parallel import chunked, default_workers, ordered_chunk_map
+from rollsim.plumbing.outputs import staged_directory
+from rollsim.plumbing.parallel import chunked, default_workers, ordered_chunk_map
 from rollsim.protocol.frames import FRAME_NAME  # the name decoders read back
 from rollsim.render.pipeline import RenderPipeline, check_render_memory
 from rollsim.render.png import encode_png
@@ -27,6 +27,7 @@ from rollsim.sensor.chain import warm_up
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
+    from rollsim.scene_sections import SceneSections
 
 CHUNK_FRAMES = 4
 # Bytes of a frame's samples per pixel, by output format. The PNG of a noisy
@@ -49,7 +50,7 @@ class RenderSummary:
     workers: int
 
 
-def frame_text(scene: Scene, truth: dict) -> dict[str, str]:
+def frame_text(scene: SceneSections, truth: dict) -> dict[str, str]:
     """A frame's metadata, as its PNG text chunks say it.
 
     The camera settings a decoder may use (exposure, ISO, row time, black
@@ -94,7 +95,7 @@ def check_render_disk(scene: Scene, n_frames: int, target: Path, what: str = "")
 
     ``what`` names the option that asked for them, before the frame count.
     """
-    from rollsim.budget import check_disk
+    from rollsim.plumbing.budget import check_disk
 
     cam = scene.camera
     check_disk(f"{what}{n_frames} frames of {cam.width_px} x {cam.height_px} {cam.output}",
@@ -140,7 +141,7 @@ def render_to_dir(
 
     Writes ``frames/frame_000000.png`` …, ``truth.jsonl`` (one line per frame)
     and ``scene.resolved.yaml`` (every value after presets and overrides).
-    The directory appears only when complete (see :mod:`rollsim.outputs`).
+    The directory appears only when complete (see :mod:`rollsim.plumbing.outputs`).
 
     Parameters
     ----------

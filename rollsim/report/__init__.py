@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from rollsim.calibrate.mmbp import p_e_text
-from rollsim.text_tables import format_number, format_percent, markdown_table
+from rollsim.plumbing.text_tables import format_number, format_percent, markdown_table
 from rollsim.report.plots import (
     plot_goodput,
     plot_message_curves,
@@ -151,7 +151,7 @@ def write_report(run_dir: Path, scene: Scene, evaluation, calibration: dict | No
     run_dir : Path
         A run directory holding frames, ``truth.jsonl`` and ``decoded.jsonl``.
     scene : Scene
-    evaluation : rollsim.evaluate.Evaluation
+    evaluation : rollsim.stages.evaluate.Evaluation
         The outcomes and their summary.
     calibration : dict or None
         :func:`rollsim.calibrate.calibrate`'s result; None when the trace
@@ -160,7 +160,7 @@ def write_report(run_dir: Path, scene: Scene, evaluation, calibration: dict | No
         Seconds per stage, in order.
     calibration_error : str, optional
     """
-    from rollsim.evaluate import read_jsonl
+    from rollsim.stages.evaluate import read_jsonl
 
     run_dir = Path(run_dir)
     truth = read_jsonl(run_dir / "truth.jsonl")
@@ -176,7 +176,7 @@ def _draw_plots(run_dir: Path, scene: Scene, evaluation, calibration: dict | Non
     """Draw the report's plots under ``run_dir/plots``; ``(title, path)`` pairs in order."""
     from decoder import inspect_frame, read_frame
 
-    from rollsim.decode import frame_files, settings_from_scene
+    from rollsim.stages.decode import frame_files, settings_from_scene
 
     plots = run_dir / PLOTS_DIR
     plots.mkdir(exist_ok=True)

@@ -13,7 +13,7 @@ spans); :func:`annotate` draws them beside the frame:
 - a column of the decoded records' spans (the rows read), each filled with
   its verdict's colour, ``false`` for a record that matches no PHY-SDU.
 
-The verdicts are :func:`rollsim.evaluate.evaluate`'s, taken within the one
+The verdicts are :func:`rollsim.stages.evaluate.evaluate`'s, taken within the one
 frame: a decode matches the PHY-SDU whose row span holds its middle row.
 """
 
@@ -26,11 +26,11 @@ from typing import Mapping, Optional, Sequence
 import cv2
 import numpy as np
 
-from rollsim.decode import frame_files
+from rollsim.stages.decode import frame_files
 from rollsim.errors import RollsimError
-from rollsim.evaluate import OUTCOMES, truth_table, decode_verdicts, match_decodes
+from rollsim.stages.evaluate import OUTCOMES, truth_table, decode_verdicts, match_decodes
 from rollsim.protocol.frames import frame_index_from_name
-from rollsim.records import iter_jsonl, read_decoded
+from rollsim.stages.records import iter_jsonl, read_decoded
 
 # RGB. Green for ok, red for a wrong payload the check passed, orange for a
 # failed check, blue for missed, grey for never whole in the frame, magenta

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Optional, Union
 
 from rollsim.errors import SceneError, clip
-from rollsim.validation import missing_path
+from rollsim.plumbing.validation import missing_path
 
 
 class SceneNameError(SceneError):

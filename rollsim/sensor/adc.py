@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rollsim.sensor.tone import ToneCurve
-from rollsim.validation import as_count, as_positive
+from rollsim.plumbing.validation import as_count, as_positive
 
 
 def electrons_to_dn(electrons: np.ndarray, gain_dn_per_e: float, black_level_dn: int, adc_bits: int) -> np.ndarray:

@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.jit import kernel
-from rollsim.validation import as_positive, as_probability
+from rollsim.numerics.jit import kernel
+from rollsim.plumbing.validation import as_positive, as_probability
 
 
 def _spill_down(charge: np.ndarray, spill: np.ndarray, full_well_e: float) -> np.ndarray:

@@ -13,14 +13,14 @@ noise on electrons already noisy:
   (N(λ, λ), λ + √λ·z in float32) or None;
 * ``full_well_e``: the clip to [0, full well], or None;
 * ``read_sigma_e``: Gaussian read noise (the word table of
-  :func:`rollsim.gaussian.normal_from_word`), or None;
+  :func:`rollsim.numerics.gaussian.normal_from_word`), or None;
 * ``adc``: conversion gain, black level and bits, or None to stop at
   electrons (float32);
 * ``lut``: the output table of each DN (gray8), or None for raw DN (uint16).
 
 Each stage's random words come from its own counter stream (its key), so
 the chain's result is the same whether it runs in one pass or stage by
-stage. The compiled kernel (:mod:`rollsim.jit`) and the numpy twin compute
+stage. The compiled kernel (:mod:`rollsim.numerics.jit`) and the numpy twin compute
 the same IEEE-754 operations in the same order, float32 where the staged
 effects work in float32, and give identical bytes (tested).
 """
@@ -33,9 +33,9 @@ from typing import Any, Callable, Literal, Optional
 
 import numpy as np
 
-from rollsim.counter_rng import GAMMA, LOW32, MIX1, MIX2, WORD_SCALE, words
-from rollsim.gaussian import normal_from_words, normal_tables
-from rollsim.jit import kernel
+from rollsim.numerics.counter_rng import GAMMA, LOW32, MIX1, MIX2, WORD_SCALE, words
+from rollsim.numerics.gaussian import normal_from_words, normal_tables
+from rollsim.numerics.jit import kernel
 from rollsim.sensor.adc import electrons_to_dn
 from rollsim.sensor.means import SeparableMeans, kernel_parts, materialize
 from rollsim.sensor.poisson import (

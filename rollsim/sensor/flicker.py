@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.clock import chip_position
-from rollsim.validation import as_finite, as_positive, as_probability
+from rollsim.numerics.clock import chip_position
+from rollsim.plumbing.validation import as_finite, as_positive, as_probability
 
 
 def flicker_row_factor(t_start_s, exposure_s: float, mains_hz: float, depth: float, phase_rad: float = 0.0) -> np.ndarray:

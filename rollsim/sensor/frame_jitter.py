@@ -17,13 +17,13 @@ than the tails beyond ``TRUNCATION_SIGMAS`` standard deviations is refused
 (:func:`max_std_s`, which the ``frame_jitter`` effect checks): the law
 would no longer be the normal it claims to be.
 
-The draws come from one per-scene stream (:mod:`rollsim.frame_sequence`), so
+The draws come from one per-scene stream (:mod:`rollsim.numerics.frame_sequence`), so
 ε_k depends only on the seed and k.
 """
 
 from __future__ import annotations
 
-from rollsim.frame_sequence import FrameSequence
+from rollsim.numerics.frame_sequence import FrameSequence
 
 STREAM = "frame_jitter"
 TRUNCATION_SIGMAS = 4.0

@@ -28,10 +28,10 @@ above any full well) take N(λ, λ) instead, whose skewness error 1/√λ is
 below 1e-3 there.
 
 Random words come from a counter-based generator
-(:mod:`rollsim.counter_rng`): pixel i uses the words of counters 2i and
+(:mod:`rollsim.numerics.counter_rng`): pixel i uses the words of counters 2i and
 2i + 1 (four 32-bit halves: one per part it needs), so the result depends
 only on the key and the means, and the compiled kernel
-(:mod:`rollsim.jit`) equals the numpy twin byte for byte.
+(:mod:`rollsim.numerics.jit`) equals the numpy twin byte for byte.
 """
 
 from __future__ import annotations
@@ -41,9 +41,9 @@ import threading
 
 import numpy as np
 
-from rollsim.counter_rng import LOW32, WORD_SCALE, stream_key, words
-from rollsim.gaussian import normal_from_words, normal_tables
-from rollsim.portable_math import exp, log
+from rollsim.numerics.counter_rng import LOW32, WORD_SCALE, stream_key, words
+from rollsim.numerics.gaussian import normal_from_words, normal_tables
+from rollsim.numerics.portable_math import exp, log
 from rollsim.sensor.special import gammaln  # cephes' lgam without scipy.special's 0.3 s import
 
 CLASS_BITS = 8
@@ -334,7 +334,7 @@ def poisson(rng: np.random.Generator, lam: np.ndarray) -> np.ndarray:
     """Poisson deviates with means ``lam``, as float32 of the same shape.
 
     float32 holds every count up to 2**24 exactly. One key is drawn from
-    ``rng`` (:func:`rollsim.counter_rng.stream_key`); the result depends only
+    ``rng`` (:func:`rollsim.numerics.counter_rng.stream_key`); the result depends only
     on ``rng``'s state and ``lam`` (see the module docstring). Compiled where
     numba is used (:mod:`rollsim.sensor.chain`), numpy otherwise, with
     identical results.

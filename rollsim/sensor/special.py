@@ -4,7 +4,7 @@ Importing any part of SciPy 1.17 (scipy.special, scipy.fft, …) loads its
 array-API layer, which imports numpy.testing and numpy.f2py: about 0.3 s of
 every command's start-up on a small machine, more than a one-frame render's
 noise. The functions here follow scipy's own algorithm (cephes) for the
-arguments rollsim passes, with the logarithm of :mod:`rollsim.portable_math`,
+arguments rollsim passes, with the logarithm of :mod:`rollsim.numerics.portable_math`,
 so that they give the same bits on every CPU: within 2 ulp of scipy, which
 takes the C library's logarithm (tested). Any other argument goes to scipy
 itself.
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.portable_math import log
+from rollsim.numerics.portable_math import log
 
 # cephes lgam (scipy.special.gammaln): log √(2π), and Stirling's series in
 # 1/x² for 13 <= x < 1000 (highest power first), as cephes writes them.

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rollsim.portable_math import power  # numpy's differs in the last bit between CPUs
-from rollsim.validation import unit_table_error
+from rollsim.numerics.portable_math import power  # numpy's differs in the last bit between CPUs
+from rollsim.plumbing.validation import unit_table_error
 
 __all__ = ["ToneCurve", "srgb_encode", "validate_table"]
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Callable, Optional, Union, cast
 
 from rollsim.sweeps.grid import Axis, Cell, parse_values
 from rollsim.sweeps.spec import DEFAULTS, STAGES, SweepSpec, spec_from_arguments, validate_cells
-from rollsim.text_tables import Shown
+from rollsim.plumbing.text_tables import Shown
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -172,7 +172,7 @@ def run_sweep(
 
 def _check_kept_frames_disk(spec: SweepSpec, resolved, out_dir: Path) -> None:
     """Refuse ``--keep-frames`` whose frames, every cell's scene's, would not fit the disk budget."""
-    from rollsim.budget import check_disk
+    from rollsim.plumbing.budget import check_disk
     from rollsim.render.writer import frame_disk_bytes
     from rollsim.scene import scene_from_dict
 
@@ -229,7 +229,7 @@ def _finish(directory, resolved, spec: SweepSpec, computed: int, submit=None) ->
 
     ``submit`` (a Dask client's) draws the plots on the workers meanwhile.
     """
-    from rollsim.outputs import write_files
+    from rollsim.plumbing.outputs import write_files
     from rollsim.sweeps.report import report_files, start_plots
     from rollsim.sweeps.table import columns_of, csv_text, parquet_bytes, table_rows
 

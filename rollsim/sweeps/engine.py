@@ -23,7 +23,7 @@ from typing import Callable, Generator, Optional
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from rollsim.errors import SystemFailure
-from rollsim.parallel import default_workers
+from rollsim.plumbing.parallel import default_workers
 
 # Seconds each of a client's and a cluster's close may take.
 CLOSE_TIMEOUT_S = 5
@@ -40,8 +40,8 @@ _CELL_COST_S = {"analytic": 0.001, "simulate": 0.2, "run": 1.0, "envelope": 1.0}
 STAGE_MODULES = {
     "analytic": ("rollsim.channel.prediction", "rollsim.sweeps.stages"),
     "simulate": ("rollsim.channel.scene_channel", "rollsim.channel.eventsim", "rollsim.sweeps.stages"),
-    "run": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.calibrate", "rollsim.stream", "decoder"),
-    "envelope": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.stream", "rollsim.genie", "decoder"),
+    "run": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.calibrate", "rollsim.sweeps.stream", "decoder"),
+    "envelope": ("rollsim.sweeps.stages", "rollsim.render", "rollsim.sweeps.stream", "rollsim.stages.genie", "decoder"),
 }
 
 
@@ -56,7 +56,7 @@ class _WorkerSetup(WorkerPlugin):
     def setup(self, worker=None):
         import importlib
 
-        from rollsim import signals
+        from rollsim.plumbing import signals
 
         with contextlib.suppress(ValueError):  # not the main thread: nothing to set
             signals.init_worker()
@@ -137,7 +137,7 @@ class DaskEngine:
             return self.client
         from distributed import Client
 
-        from rollsim.budget import memory_budget_bytes
+        from rollsim.plumbing.budget import memory_budget_bytes
 
         workers = self.workers or default_workers()
         # A free port, never 8787: another cluster on the machine may hold it

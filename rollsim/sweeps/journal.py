@@ -11,7 +11,7 @@
     the journal is read back, so a killed sweep loses only the cells in
     flight.
 ``DIR/results.parquet``, ``DIR/results.csv``, ``DIR/report.md``, ``DIR/plots/``
-    Written when every cell is done, together (:mod:`rollsim.outputs`).
+    Written when every cell is done, together (:mod:`rollsim.plumbing.outputs`).
 ``DIR/frames/cell-…/``
     With ``--keep-frames``: each cell's frames as a render directory.
 
@@ -31,7 +31,7 @@ from typing import Iterable
 import yaml
 
 from rollsim.errors import OutputError, RollsimError
-from rollsim.outputs import check_directory_target, create_directory, foreign_entries, os_failures, read_manifest, \
+from rollsim.plumbing.outputs import check_directory_target, create_directory, foreign_entries, os_failures, read_manifest, \
     write_file
 
 SPEC_NAME = "sweep.yaml"

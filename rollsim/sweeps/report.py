@@ -132,7 +132,7 @@ def plot_png(item: tuple) -> bytes:
     holding only what the figure needs (``{name: values}`` of the cells
     that succeeded), so that it is cheap to send.
     """
-    from rollsim.outputs import figure_png
+    from rollsim.plumbing.outputs import figure_png
 
     figure, band, columns, axes_keys, stage = item
     rows = [dict(zip(columns, values), status="ok") for values in zip(*columns.values())]

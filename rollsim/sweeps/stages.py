@@ -17,7 +17,7 @@ flat row of figures, with units in the column names:
     strategy replayed over the outcome trace.
 ``envelope``
     The same frames read by rollsim's decoder and by the genie-aided
-    reference receiver (:mod:`rollsim.genie`): each one's ok fraction of the
+    reference receiver (:mod:`rollsim.stages.genie`): each one's ok fraction of the
     fully visible PHY-SDUs with its 95 % Wilson interval, and where the cell
     sits (exposure in chips, rows per chip, stripe SNR, LED level over the
     background, ON level in full wells: :func:`envelope_physics`).
@@ -126,7 +126,7 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
     from rollsim.calibrate.replay import replay_goodput_bps
     from rollsim.channel.scene_channel import sdu_duration_from_scene
     from rollsim.render import RenderPipeline
-    from rollsim.stream import DecodedRun
+    from rollsim.sweeps.stream import DecodedRun
 
     run = DecodedRun(RenderPipeline(scene), measure_stripes=True)
     if frames_dir is not None:
@@ -144,7 +144,7 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
            "render_s": float(sum(run.render_s)), "decode_s": float(sum(run.decode_s))}
     physics = physics_prediction(scene)
     row.update(M_physics=physics["M"], N_physics=physics["N"])
-    # The receiver's own figure, the same for every strategy (rollsim.receiver).
+    # The receiver's own figure, the same for every strategy (rollsim.stages.receiver).
     message = summary["message"]
     row.update(message_decodable=message["decodable"], message_ok=message["message_ok"],
                goodput_received_bps=message["goodput_bps"])
@@ -172,7 +172,7 @@ def _write_frames(run, scene: Scene, frames_dir: Path) -> None:
     """Step every frame of ``run`` and write it as a render directory, committed at the end."""
     import json
 
-    from rollsim.outputs import staged_directory
+    from rollsim.plumbing.outputs import staged_directory
     from rollsim.render.png import encode_png
     from rollsim.render.writer import FRAME_NAME, frame_text
     from rollsim.scene import scene_to_yaml
@@ -214,7 +214,7 @@ def envelope_physics(setup, led_rows) -> dict:
         Σ_j g_j²/v_j over the row's pixels (g_j the gap up to the clip, v_j
         the noise variance at mid level, electrons:
         :func:`rollsim.effects.readable.stripe_gap_and_variance`, as
-        :func:`rollsim.genie.pixel_model` uses them). ``led_to_background``:
+        :func:`rollsim.stages.genie.pixel_model` uses them). ``led_to_background``:
         the LED's time-averaged light in the pixels of its body (half the
         ON–OFF gap: Manchester is ON half the time) over the background's
         level, electrons (None without ambient light). ``on_full_wells``: the
@@ -252,7 +252,7 @@ def receiver_figures(summary: dict, prefix: str = "") -> dict:
     Parameters
     ----------
     summary : dict
-        :func:`rollsim.evaluate.summarise` of its records.
+        :func:`rollsim.stages.evaluate.summarise` of its records.
     prefix : str
         Put before every column name (``"genie_"``).
     """
@@ -270,14 +270,14 @@ def envelope_row(scene: Scene, options: dict) -> dict:
     """rollsim's decoder and the genie-aided receiver on the same frames of one scene.
 
     ``scene.frames`` frames are rendered in memory; each is decoded by
-    :mod:`decoder` (:class:`rollsim.stream.DecodedRun`) and by
-    :func:`rollsim.genie.genie_decode`, and both record sets are evaluated
+    :mod:`decoder` (:class:`rollsim.sweeps.stream.DecodedRun`) and by
+    :func:`rollsim.stages.genie.genie_decode`, and both record sets are evaluated
     against the same truth. Columns: :data:`ENVELOPE_COLUMNS`.
     """
-    from rollsim.evaluate import evaluate
-    from rollsim.genie import genie_decode
+    from rollsim.stages.evaluate import evaluate
+    from rollsim.stages.genie import genie_decode
     from rollsim.render import RenderPipeline
-    from rollsim.stream import DecodedRun
+    from rollsim.sweeps.stream import DecodedRun
 
     run = DecodedRun(RenderPipeline(scene))
     setup = run.pipeline.setup

@@ -34,7 +34,7 @@ import math
 
 import numpy as np
 
-from rollsim.portable_math import exp  # numpy's differs in the last bit between CPUs
+from rollsim.numerics.portable_math import exp  # numpy's differs in the last bit between CPUs
 
 # Time constants of history before the first time asked for.
 HISTORY_TAU = 40.0

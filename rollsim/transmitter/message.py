@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rollsim.seeds import rng
+from rollsim.numerics.seeds import rng
 
 
 def message_from_seed(seed: int, message_bytes: int) -> bytes:

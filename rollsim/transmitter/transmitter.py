@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rollsim.budget import check_memory
+from rollsim.plumbing.budget import check_memory
 from rollsim.protocol import PhyFormat, n_packets, packetize
 from rollsim.transmitter.chips import ChipSource, ConstantChips, DataChips, SquareChips, prefix_dtype
 from rollsim.transmitter.message import message_from_seed
@@ -19,7 +19,7 @@ from rollsim.transmitter.schedule import RlncSchedule, Schedule, schedule_for
 from rollsim.transmitter.waveform import Waveform
 
 if TYPE_CHECKING:
-    from rollsim.scene.model import Scene
+    from rollsim.scene_sections import SceneSections
 
 PATTERNS = ("data", "square", "on", "off")
 
@@ -214,13 +214,13 @@ def build_transmitter(
     return Transmitter(phy, message, payloads, sdu_chips, schedule, pattern, waveform)
 
 
-def phy_from_scene(scene: Scene) -> PhyFormat:
+def phy_from_scene(scene: SceneSections) -> PhyFormat:
     """The PHY-SDU layout of a scene's link."""
     link = scene.link
     return PhyFormat(link.header_bits, link.payload_bits, link.check, link.line_code)
 
 
-def transmitter_from_scene(scene: Scene) -> Transmitter:
+def transmitter_from_scene(scene: SceneSections) -> Transmitter:
     """The transmitter a validated :class:`rollsim.scene.Scene` describes."""
     link = scene.link
     return build_transmitter(

@@ -11,7 +11,7 @@ difference of integers plus two fractional chips. The chip position
 u = (t - t0)·f is carried as an unevaluated sum of two floats (error-free
 TwoSum and TwoProduct), so the fraction of a chip is exact to rounding even
 hours into a run, where u alone would lose ten digits: a 100 µs window keeps
-12 significant digits at any time (:mod:`rollsim.clock`).
+12 significant digits at any time (:mod:`rollsim.numerics.clock`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rollsim.clock import chip_position
+from rollsim.numerics.clock import chip_position
 
 if TYPE_CHECKING:
     from rollsim.transmitter.chips import ChipSource

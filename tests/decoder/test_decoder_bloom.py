@@ -138,7 +138,7 @@ def test_phy_sdus_are_read_through_the_simulators_blooming(full_wells):
 
 @pytest.mark.parametrize("full_wells", [1.3, 1.35])
 def test_effect_blooming_reads_every_fully_visible_phy_sdu_past_a_full_well(full_wells):
-    from rollsim.stream import scene_outcomes
+    from rollsim.sweeps.stream import scene_outcomes
     from rollsim.scene import load_scene
 
     scene = load_scene("effect-blooming", [f"led.luminous_intensity_cd={5.0 * full_wells / 1.05}", "camera.width_px=480"])

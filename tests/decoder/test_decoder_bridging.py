@@ -108,7 +108,7 @@ def test_a_rendered_footprint_split_by_a_flat_band_is_one_region(bridge):
     Unbridged, the rows of its first PHY-SDU lie in no region whole; bridged,
     one region holds them, and the decoder reads that PHY-SDU.
     """
-    from rollsim.decode import settings_from_scene
+    from rollsim.stages.decode import settings_from_scene
     from rollsim.render import RenderPipeline
     from rollsim.scene import load_scene
 

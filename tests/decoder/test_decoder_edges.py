@@ -119,7 +119,7 @@ def test_paper_geometric_reads_the_phy_sdu_ending_on_its_disks_last_rows(frame, 
     # paper-geometric with CRC-8, 300 frames: 3 of 750 fully visible
     # PHY-SDUs end in an OFF chip on row 1070 of a disk ending on row 1072
     # (frames 83, 134 and 287); all were missed, now all are read.
-    from rollsim.decode import settings_from_scene
+    from rollsim.stages.decode import settings_from_scene
     from rollsim.render import RenderPipeline
     from rollsim.scene import load_scene
 

@@ -200,7 +200,7 @@ def test_three_chip_exposure_scene_is_read():
     # paper-default's brightness; none decoded falsely. 60 frames measured
     # 97.0 % (197 of 203).
     from rollsim.scene import load_scene
-    from rollsim.stream import scene_outcomes
+    from rollsim.sweeps.stream import scene_outcomes
 
     summary = scene_outcomes(load_scene("stress-exposure-3chips"), 20)
     assert summary["fully_visible"] >= 60
@@ -219,7 +219,7 @@ def test_two_chip_exposure_is_read_across_flat_bands():
     # across it (decoder.bridging). Measured: 52 of 53 read over 16 frames,
     # 48 before the bands were bridged.
     from rollsim.scene import load_scene
-    from rollsim.stream import scene_outcomes
+    from rollsim.sweeps.stream import scene_outcomes
 
     summary = scene_outcomes(load_scene("paper-default", TWO_CHIPS), 16)
     assert summary["fully_visible"] >= 50
@@ -256,7 +256,7 @@ def test_one_chip_of_exposure_is_read():
     # brightness: thresholding corrupted half the PHY-SDUs there (43 % ok
     # over 16 frames); from 0.9 chip on the decoder detects sequences.
     from rollsim.scene import load_scene
-    from rollsim.stream import scene_outcomes
+    from rollsim.sweeps.stream import scene_outcomes
 
     summary = scene_outcomes(load_scene("paper-default", ["camera.exposure_us=125", "camera.iso=8000"]), 8)
     assert summary["counts"]["ok"] >= 0.9 * summary["fully_visible"]
@@ -323,7 +323,7 @@ def test_weak_stripes_at_13_db_are_read():
     # sigmas rather than 2); 29 when rows had to stand 3 sigmas out to be
     # read at all, none before the correlation weights.
     from rollsim.scene import load_scene
-    from rollsim.stream import scene_outcomes
+    from rollsim.sweeps.stream import scene_outcomes
 
     summary = scene_outcomes(load_scene("paper-geometric", ["led.luminous_intensity_cd=0.00048"]), 16)
     assert summary["fully_visible"] >= 48

@@ -143,7 +143,7 @@ def test_paper_geometric_reads_phy_sdus_at_a_dim_disks_ends():
     # read, 43 with the bands' weights alone, 52 by the genie): frame 5's
     # PHY-SDUs over rows 48 … 296 and 804 … 1052 lie where the chord is
     # narrow; the bands' weights alone read neither, now both are read.
-    from rollsim.decode import settings_from_scene
+    from rollsim.stages.decode import settings_from_scene
     from rollsim.render import RenderPipeline
     from rollsim.scene import load_scene
 

@@ -17,7 +17,7 @@ import pytest
 
 from decoder.region import MIN_COMMON_Z, band_profiles, block_means, common_stripes_z
 from rollsim.scene import load_scene
-from rollsim.stream import scene_outcomes
+from rollsim.sweeps.stream import scene_outcomes
 
 
 def assert_read(summary, least_visible, fraction):
@@ -246,10 +246,10 @@ def test_the_chip_stage_reads_the_genies_profile_near_the_genies_boundary():
     # rows read from 2.5 sigmas instead of 2, 43. Its own column-band
     # profile reads about 10 of 52 at 10.3 dB and 46 at 13.3 dB: the
     # remaining gap is the profile's, not the chips'.
-    from rollsim.decode import settings_from_scene
-    from rollsim.genie import genie_profile
+    from rollsim.stages.decode import settings_from_scene
+    from rollsim.stages.genie import genie_profile
     from rollsim.render import RenderPipeline
-    from rollsim.stream import DecodedRun
+    from rollsim.sweeps.stream import DecodedRun
 
     from decoder.framing import decode_chip_stream
     from decoder.pipeline import equalised_chips, exposure_rows, passed_or_sure

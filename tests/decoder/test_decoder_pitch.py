@@ -147,7 +147,7 @@ ISP_CAMERA = ["camera.width_px=480", "camera.height_px=360", "camera.row_time_us
     ("paper-geometric", [*ISP_CAMERA, "link.clock_hz=4000"]),
 ], ids=["isp-4.5rows", "isp-9rows", "paper-default", "saturated-12rows", "isp-camera-7.9rows"])
 def test_rendered_frames_give_their_pitch_and_decode_as_with_it(scene_name, overrides):
-    from rollsim.decode import settings_from_scene
+    from rollsim.stages.decode import settings_from_scene
     from rollsim.render import iter_frames
     from rollsim.scene import load_scene
 

@@ -116,7 +116,7 @@ def test_the_rows_added_are_the_grown_regions_profile_there():
 # ------------------------------------------------------------------ rendered frames
 
 def rendered(scene_name: str, overrides: list[str], index: int):
-    from rollsim.decode import settings_from_scene
+    from rollsim.stages.decode import settings_from_scene
     from rollsim.render import RenderPipeline
     from rollsim.scene import load_scene
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from rollsim.jit import numpy_only
+from rollsim.numerics.jit import numpy_only
 from rollsim.render import RenderPipeline
 from rollsim.sensor.blooming import _bloom_kernel, bloom
 

@@ -12,7 +12,7 @@ import pytest
 
 import decoder
 from rollsim.cli import main
-from rollsim.evaluate import evaluate
+from rollsim.stages.evaluate import evaluate
 from rollsim.render import RenderPipeline, render_frames
 from rollsim.scene import EFFECT_NAMES, load_scene
 from rollsim.transmitter import transmitter_from_scene

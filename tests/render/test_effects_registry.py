@@ -19,8 +19,8 @@ import rollsim.effects
 from rollsim.effects import REGISTRY, SLOTS, Effect, EffectParams, NoParams
 from rollsim.errors import SceneError
 from rollsim.render import RenderPipeline
-from rollsim.render.setup import SceneSetup
-from rollsim.render.state import FrameState
+from rollsim.render_contract.setup import SceneSetup
+from rollsim.render_contract.state import FrameState
 from rollsim.scene import EFFECT_NAMES, Effects, Scene, scene_from_dict, scene_model
 
 # Modules of rollsim.effects that are not effects: the concept, and helpers

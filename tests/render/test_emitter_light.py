@@ -189,7 +189,7 @@ def test_the_halo_has_the_same_bits_for_any_number_of_threads_and_without_the_ex
 
 def direct_moffat_kernel(core_px, exponent, ry, rx):
     """The kernel with every sample's power taken (not mirrored), scaled by the inscribed disk's sum."""
-    from rollsim.portable_math import power as portable_power
+    from rollsim.numerics.portable_math import power as portable_power
 
     dy = np.arange(-ry, ry + 1, dtype=np.float32)[:, None] / np.float32(core_px)
     dx = np.arange(-rx, rx + 1, dtype=np.float32)[None, :] / np.float32(core_px)

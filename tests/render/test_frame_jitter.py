@@ -5,10 +5,10 @@ import pytest
 
 from rollsim.errors import SceneError
 from rollsim.render import RenderPipeline
-from rollsim.seeds import rng as named_rng
+from rollsim.numerics.seeds import rng as named_rng
 from rollsim.sensor.frame_jitter import frame_margin_s, jitter_bound_s, max_std_s
 from rollsim.sensor.frame_jitter import FrameJitter
-from rollsim.gaussian import truncated_normal
+from rollsim.numerics.gaussian import truncated_normal
 
 from conftest import make_scene
 

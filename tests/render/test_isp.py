@@ -160,7 +160,7 @@ def test_the_blur_is_exact_in_fixed_point(sigma_rows, sigma_cols):
 def test_the_compiled_filters_give_the_twins_bytes(shape, filter_, args):
     """Fixed point in integers and float64 against OpenCV's exact float64 filter and numpy's rounding,
     taps reaching past tiny images included (reflected again and again)."""
-    from rollsim import jit
+    from rollsim.numerics import jit
     from rollsim.isp import filters
 
     image = np.random.default_rng(sum(shape)).integers(0, 256, shape, dtype=np.uint8)

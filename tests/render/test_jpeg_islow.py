@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from rollsim import jit
+from rollsim.numerics import jit
 from rollsim.isp import jpeg_round_trip
 from rollsim.isp.jpeg_islow import (LUMINANCE_TABLE, _round_trip_numpy, quantisation_table, round_trip_grey)
 

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import rollsim.sensor.chain as chain
-from rollsim import jit
+from rollsim.numerics import jit
 from rollsim.render import RenderPipeline
-from rollsim.render.state import FrameState
+from rollsim.render_contract.state import FrameState
 from rollsim.scene import load_scene
 from rollsim.sensor.adc import gray8_lut
 from rollsim.sensor.chain import Adc, ChainKeys, run_chain

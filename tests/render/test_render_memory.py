@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from rollsim.decode import DECODE_BYTES_PER_PIXEL
+from rollsim.stages.decode import DECODE_BYTES_PER_PIXEL
 from rollsim.render.pipeline import render_memory_bytes
 from rollsim.scene import load_scene
 
@@ -24,7 +24,7 @@ def rss(field):
 
 from rollsim.scene import load_scene
 from rollsim.render import RenderPipeline
-from rollsim.decode import settings_from_scene
+from rollsim.stages.decode import settings_from_scene
 from decoder import decode_frame
 
 scene = load_scene("paper-default", json.loads(sys.argv[1]))

@@ -172,7 +172,7 @@ def test_bad_arguments_name_what_is_wrong():
 
 
 def test_numpy_only_runs_the_twins_inside_the_block_and_nests():
-    from rollsim import jit
+    from rollsim.numerics import jit
     from rollsim.sensor.chain import _chain_kernel
 
     if _chain_kernel.compiled is None:
@@ -194,7 +194,7 @@ def test_short_renders_take_the_numpy_twins():
 
 
 def test_kernel_cache_dir_is_keyed_by_the_kernel_sources(tmp_path, monkeypatch):
-    from rollsim import jit
+    from rollsim.numerics import jit
 
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     path = jit.kernel_cache_dir()

@@ -127,7 +127,7 @@ def test_unlisted_effects_are_absent_from_the_pipeline():
 
 
 def test_signal_budget_matches_a_noiseless_render():
-    from rollsim.describe import signal_budget
+    from rollsim.stages.describe import signal_budget
 
     scene = make_scene(effects=("ambient",), camera={"height_px": 40, "width_px": 40, "iso": 400.0},
                        led={"size_mm": 200.0, "shape": "square", "luminous_intensity_cd": 0.3, "off_level": 0.25},

@@ -1,7 +1,7 @@
 """``rollsim run``: the whole loop on one scene.
 
 render → decode → evaluate → calibrate → report, into one output directory
-that appears only when every stage is done (:mod:`rollsim.outputs`):
+that appears only when every stage is done (:mod:`rollsim.plumbing.outputs`):
 
 - ``frames/``, ``truth.jsonl``, ``scene.resolved.yaml`` (render)
 - ``decoded.jsonl``, ``decode.json`` (decode)
@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Optional
 
 from rollsim.errors import RollsimError
-from rollsim.outputs import staged_directory
+from rollsim.plumbing.outputs import staged_directory
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -117,8 +117,8 @@ def run_scene(
         an OS failure while writing; ``out_dir`` is then left as it was.
     """
     from rollsim.calibrate import calibrate, load_trace
-    from rollsim.decode import decode_directory, settings_from_scene
-    from rollsim.evaluate import evaluate_directory
+    from rollsim.stages.decode import decode_directory, settings_from_scene
+    from rollsim.stages.evaluate import evaluate_directory
     from rollsim.render import RenderPipeline
     from rollsim.render.pipeline import check_render_memory
     from rollsim.render.writer import check_render_disk, render_into

@@ -7,13 +7,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rollsim.counter_rng import stream_key
-from rollsim.seeds import rng as named_rng
+from rollsim.numerics.counter_rng import stream_key
+from rollsim.numerics.seeds import rng as named_rng
 from rollsim.sensor.means import SeparableMeans, materialize
 
 if TYPE_CHECKING:
     from rollsim.optics.footprint import Footprint
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 
 def _not_yet() -> np.ndarray:
@@ -109,6 +109,6 @@ class FrameState:
         return named_rng(self.setup.scene.seed, stream, self.index)
 
     def counter_key(self, stream: str) -> np.uint64:
-        """The 64-bit counter key of ``stream`` for this frame (:mod:`rollsim.counter_rng`): one
+        """The 64-bit counter key of ``stream`` for this frame (:mod:`rollsim.numerics.counter_rng`): one
         draw of :meth:`rng`, the key a noise stage's per-pixel words derive from."""
         return stream_key(self.rng(stream))

@@ -40,7 +40,7 @@ from typing import Any, Callable, Iterator, Optional
 
 _DISABLED = ("0", "false", "no", "off")
 # Every module whose code or constants a kernel compiles in.
-KERNEL_SOURCES = ("rollsim.jit", "rollsim.counter_rng", "rollsim.gaussian", "rollsim.sensor.poisson",
+KERNEL_SOURCES = ("rollsim.numerics.jit", "rollsim.numerics.counter_rng", "rollsim.numerics.gaussian", "rollsim.sensor.poisson",
                   "rollsim.sensor.chain", "rollsim.sensor.blooming", "rollsim.isp.jpeg_islow",
                   "rollsim.isp.filters")
 

@@ -28,7 +28,7 @@ from rollsim.sensor.tone import ToneCurve
 from rollsim.transmitter import Transmitter, transmitter_from_scene
 
 if TYPE_CHECKING:
-    from rollsim.scene.model import Scene
+    from rollsim.scene_sections import SceneSections
 
 
 @dataclass(frozen=True)
@@ -37,7 +37,7 @@ class SceneSetup:
 
     Attributes
     ----------
-    scene : Scene
+    scene : SceneSections
     timing : RowTiming
     transmitter : Transmitter
     footprint : Footprint
@@ -76,7 +76,7 @@ class SceneSetup:
         for linear.
     """
 
-    scene: Scene
+    scene: SceneSections
     timing: RowTiming
     transmitter: Transmitter
     footprint: Footprint
@@ -102,7 +102,7 @@ class SceneSetup:
         return self.scene.camera.height_px, self.scene.camera.width_px
 
 
-def build_setup(scene: Scene) -> SceneSetup:
+def build_setup(scene: SceneSections) -> SceneSetup:
     """Compute a scene's :class:`SceneSetup`."""
     cam = scene.camera
     centre = led_centre_px(scene)

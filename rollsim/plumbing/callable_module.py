@@ -1,8 +1,8 @@
 """Modules that are also the API function of their name.
 
-``rollsim.render``, ``rollsim.decode``, ``rollsim.evaluate`` and
-``rollsim.calibrate`` are modules of the pipeline and, at the top level,
-the Python API's functions (:mod:`rollsim.api`): ``rs.render(scene)``.
+``rollsim.render`` and ``rollsim.calibrate`` are packages of the pipeline
+and, at the top level, the Python API's functions (:mod:`rollsim.api`):
+``rs.render(scene)``.
 Python binds a package's attribute to a submodule once the submodule is
 imported, which would hide the function; so each of these modules is made
 callable, and calling it calls the API function of the same name.

@@ -40,12 +40,12 @@ class DecodedRun:
         the same decoding pass.
     other_decoded : list of dict
         With ``other_decoder`` (``package.module:function``, see
-        :func:`rollsim.decode.load_decoder`): its records of the same
+        :func:`rollsim.stages.decode.load_decoder`): its records of the same
         frames, and ``other_decode_s`` its seconds per frame.
     """
 
     def __init__(self, pipeline, measure_stripes: bool = False, other_decoder: str | None = None):
-        from rollsim.decode import load_decoder, settings_from_scene
+        from rollsim.stages.decode import load_decoder, settings_from_scene
 
         self.pipeline = pipeline
         self._settings = settings_from_scene(pipeline.setup.scene)
@@ -81,7 +81,7 @@ class DecodedRun:
         self.truth.append(frame.truth)
         self.decoded.extend(sdu.to_record() for sdu in found)
         if self._other is not None:
-            from rollsim.records import as_decoded_record
+            from rollsim.stages.records import as_decoded_record
 
             start = time.perf_counter()
             self.other_decoded.extend(as_decoded_record(f, index) for f in self._other(frame.image, settings))
@@ -89,11 +89,11 @@ class DecodedRun:
         return frame
 
     def evaluation(self, other: bool = False):
-        """The outcome of every emission of the frames stepped (:func:`rollsim.evaluate.evaluate`).
+        """The outcome of every emission of the frames stepped (:func:`rollsim.stages.evaluate.evaluate`).
 
         With ``other``, of the other decoder's records.
         """
-        from rollsim.evaluate import evaluate
+        from rollsim.stages.evaluate import evaluate
 
         return evaluate(self.truth, self.other_decoded if other else self.decoded, self.pipeline.setup.transmitter)
 
@@ -129,7 +129,7 @@ def scene_outcomes(scene: Scene, n_frames: int, other_decoder: str | None = None
     Returns
     -------
     dict
-        The evaluation summary (:func:`rollsim.evaluate.summarise`) plus
+        The evaluation summary (:func:`rollsim.stages.evaluate.summarise`) plus
         ``render_ms_per_frame`` and ``decode_ms_per_frame`` (one core); with
         ``other_decoder``, ``other``: its summary and ``decode_ms_per_frame``.
     """

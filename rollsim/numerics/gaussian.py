@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from rollsim.portable_math import log  # numpy's differs in the last bit between CPUs
+from rollsim.numerics.portable_math import log  # numpy's differs in the last bit between CPUs
 
 NORMAL_METHODS = ("exact", "table")
 _BINS = 1 << 16
@@ -140,7 +140,7 @@ def truncated_normal(uniform: np.ndarray, sigma: float, bound: float) -> np.ndar
 # ------------------------------------------------ from 32-bit random words
 #
 # The render's compiled noise kernels draw their uniforms from a counter-based
-# generator (rollsim.counter_rng), one 32-bit word per deviate. The word's top
+# generator (rollsim.numerics.counter_rng), one 32-bit word per deviate. The word's top
 # 16 bits pick the bin, as ``table`` does; in the two outermost bins its low
 # 16 bits place the deviate in the tail by the exact quantile at the word's
 # centre, (w + 1/2)/2^32: tails out to ±6.34σ, where the 2^-32 resolution of

@@ -49,9 +49,9 @@ from pathlib import Path
 import numpy as np
 
 from rollsim.errors import RollsimError, clip, short_repr
-from rollsim.receiver import receive_message
-from rollsim.records import read_decoded, read_jsonl, run_identifier
-from rollsim.validation import missing_path
+from rollsim.stages.receiver import receive_message
+from rollsim.stages.records import read_decoded, read_jsonl, run_identifier
+from rollsim.plumbing.validation import missing_path
 
 OUTCOMES = ("ok", "undetected_error", "corrupted", "missed", "not_visible")
 OUTCOME_COLUMNS = ("tx", "sequence", "outcome", "success", "frame", "fully_visible", "decodes", "start_s", "end_s")
@@ -259,14 +259,14 @@ def evaluate_directory(run_dir: Path, force: bool = False, decoded_file: Path | 
     decoded_file : Path, optional
         The decoded PHY-SDUs to score, default ``run_dir/decoded.jsonl``:
         any decoder's, checked line by line against the schema
-        (:mod:`rollsim.records`).
+        (:mod:`rollsim.stages.records`).
     against : Path, optional
         A second decoder's ``decoded.jsonl``, scored on the same frames and
-        compared outcome by outcome (:func:`rollsim.compare.compare_evaluations`)
+        compared outcome by outcome (:func:`rollsim.stages.compare.compare_evaluations`)
         into ``run_dir/comparison.json``, committed with the others.
     allow_foreign : bool
         Score records of another render too (their ``run`` differs from
-        this directory's: :func:`rollsim.records.run_identifier`), with a
+        this directory's: :func:`rollsim.stages.records.run_identifier`), with a
         warning; without it they are refused.
 
     Raises
@@ -275,8 +275,8 @@ def evaluate_directory(run_dir: Path, force: bool = False, decoded_file: Path | 
         A missing, malformed or inconsistent input file (named, with the
         line), or an existing output without ``force``.
     """
-    from rollsim.compare import compare_evaluations
-    from rollsim.outputs import check_file_targets, staged_files
+    from rollsim.stages.compare import compare_evaluations
+    from rollsim.plumbing.outputs import check_file_targets, staged_files
 
     run_dir = Path(run_dir)
     targets = [run_dir / "outcomes.csv", run_dir / "evaluation.json"]
@@ -497,7 +497,7 @@ def outcomes_csv(outcomes: list[dict]) -> str:
 
 def format_summary(summary: dict) -> str:
     """A short table of an evaluation summary."""
-    from rollsim.text_tables import format_percent
+    from rollsim.plumbing.text_tables import format_percent
 
     unreadable = summary.get("frames_unreadable")
     lines = [
@@ -521,15 +521,10 @@ def format_summary(summary: dict) -> str:
 
 
 def _message_line(message: dict) -> str:
-    """What the receiver made of the message (:mod:`rollsim.receiver`)."""
+    """What the receiver made of the message (:mod:`rollsim.stages.receiver`)."""
     if not message["decodable"]:
         return f"message                         not decodable from the {message['receptions']} PHY-SDUs read"
     exact = "bit-exact" if message["message_ok"] else "WRONG (an undetected error was used)"
     return (f"message                         decodable in frame {message['frame']} after {message['receptions']} "
             f"PHY-SDUs, {exact}; goodput {message['goodput_bps']:.4g} bit/s")
 
-
-# rollsim.evaluate(...) is the Python API's function (rollsim.api).
-from rollsim.callable_module import make_callable  # noqa: E402
-
-make_callable(__name__)

@@ -38,7 +38,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Callable, Iterator, NamedTuple, Optional
 
-from rollsim.budget import check_file_size
+from rollsim.plumbing.budget import check_file_size
 from rollsim.errors import RollsimError, clip, short_repr
 
 SCHEMA_VERSION = 1
@@ -397,7 +397,7 @@ def iter_jsonl(path: Path) -> Iterator[tuple[int, object]]:
     ------
     RollsimError
         The file missing, unreadable, too large for memory (its records are
-        usually kept: :func:`rollsim.budget.check_file_size`), or a line that
+        usually kept: :func:`rollsim.plumbing.budget.check_file_size`), or a line that
         is not UTF-8 JSON (naming the file and line).
     """
     path = Path(path)

@@ -3,7 +3,7 @@
 A sequence x_0, x_1, … of i.i.d. (optionally truncated) standard normal
 vectors comes from one per-scene stream, cut into blocks of
 :data:`BLOCK_FRAMES` frames: block b is drawn from
-``rollsim.seeds.rng(seed, stream, b)``. So x_k, and the walk
+``rollsim.numerics.seeds.rng(seed, stream, b)``. So x_k, and the walk
 W_k = x_0 + … + x_{k−1} (a sum of k steps, W_0 = 0), depend only on the seed,
 the stream and k: not on which frames were rendered before, nor on the number
 of workers. W_k costs one block's cumulative sum plus, once per process, the
@@ -17,8 +17,8 @@ from collections import OrderedDict
 
 import numpy as np
 
-from rollsim.seeds import rng as named_rng
-from rollsim.gaussian import truncated_normal
+from rollsim.numerics.seeds import rng as named_rng
+from rollsim.numerics.gaussian import truncated_normal
 
 BLOCK_FRAMES = 1024
 _CACHED_BLOCKS = 4

@@ -20,7 +20,7 @@ import os
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, Iterator, Optional, Sequence
 
-from rollsim import signals
+from rollsim.plumbing import signals
 
 
 def default_workers(cap: Optional[int] = None) -> int:

@@ -54,7 +54,7 @@ import sys
 from pathlib import Path
 from typing import Callable, Iterable, Optional, Union
 
-from rollsim import signals
+from rollsim.plumbing import signals
 from rollsim.errors import CommitError, OutputError, SystemFailure
 
 MANIFEST_NAME = ".rollsim-output.json"

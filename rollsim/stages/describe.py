@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rollsim.budget import check_memory
+from rollsim.plumbing.budget import check_memory
 from rollsim.channel.prediction import link_prediction
 from rollsim.optics.geometry import led_image_size_px
 from rollsim.optics.radiometry import photon_rate_per_pixel, photons_per_lumen_illuminant, photons_per_lumen_monochromatic

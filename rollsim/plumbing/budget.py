@@ -22,7 +22,7 @@ a sweep's kept frames): :func:`check_disk` compares an estimate with
 ``rollsim --disk-limit SIZE``, else ``ROLLSIM_DISK_LIMIT``, else the free
 space of the target's file system less a margin (:func:`disk_margin_bytes`),
 before the first byte is written. A disk that fills anyway (another program
-writing meanwhile) still stops the command cleanly (:mod:`rollsim.outputs`).
+writing meanwhile) still stops the command cleanly (:mod:`rollsim.plumbing.outputs`).
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ from rollsim.effects.readable import stripe_gap_and_variance
 from rollsim.sensor.adc import full_scale_electrons
 
 if TYPE_CHECKING:
-    from rollsim.render.setup import SceneSetup
+    from rollsim.render_contract.setup import SceneSetup
 
 # Rows beyond a PHY-SDU's own, on each side, used to fit its levels (chips).
 LEVEL_MARGIN_CHIPS = 8

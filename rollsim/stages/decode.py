@@ -31,12 +31,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Optional
 
 from rollsim.errors import Interrupted, RollsimError, clip, short_repr
-from rollsim.outputs import staged_files
-from rollsim.parallel import chunked, ordered_chunk_map
+from rollsim.plumbing.outputs import staged_files
+from rollsim.plumbing.parallel import chunked, ordered_chunk_map
 from rollsim.protocol import PhyFormat
-from rollsim.records import run_identifier
+from rollsim.stages.records import run_identifier
 from rollsim.transmitter import phy_from_scene
-from rollsim.validation import missing_path
+from rollsim.plumbing.validation import missing_path
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
@@ -166,7 +166,7 @@ def frame_pixel_limit(workers: int = 1) -> int:
     """The most pixels a frame may have for ``workers`` processes to decode within the memory budget."""
     from decoder import MAX_FRAME_PIXELS
 
-    from rollsim.budget import memory_budget_bytes
+    from rollsim.plumbing.budget import memory_budget_bytes
 
     per_pixel = DECODE_BYTES_PER_PIXEL + _MAX_PNG_BYTES_PER_PIXEL
     return max(1, min(MAX_FRAME_PIXELS, memory_budget_bytes() // (per_pixel * max(1, workers))))
@@ -302,7 +302,7 @@ def _records_of(found, index: int, run: Optional[str]) -> list[dict]:
     Runs the plug-in's code too (a generator's body, ``to_record``), so it is
     called under the same guard and deadline as the plug-in itself.
     """
-    from rollsim.records import as_decoded_record
+    from rollsim.stages.records import as_decoded_record
 
     not_records = RollsimError(f"frame {index}: returned {short_repr(found)}, not an iterable of records "
                                "(a list of dicts, say)")
@@ -420,7 +420,7 @@ def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1,
     ``error`` is None for a frame that was read, else a record naming the
     file and what is wrong with it (a frame too large for the memory budget
     is one of these: :func:`frame_pixel_limit`). Every record carries
-    ``run`` when given (:func:`rollsim.records.run_identifier`).
+    ``run`` when given (:func:`rollsim.stages.records.run_identifier`).
 
     Raises
     ------
@@ -466,7 +466,7 @@ def decode_directory(
 ) -> DecodeSummary:
     """Decode every frame of ``run_dir``; write ``decoded.jsonl`` and ``decode.json``.
 
-    Both files are committed together (:mod:`rollsim.outputs`): an
+    Both files are committed together (:mod:`rollsim.plumbing.outputs`): an
     interrupted decode (a full disk, a signal) leaves neither, and the
     next one starts afresh.
 
@@ -524,8 +524,3 @@ def decode_directory(
         staged.write(targets[1], json.dumps(summary.as_dict(), indent=2, allow_nan=False) + "\n")
     return summary
 
-
-# rollsim.decode(...) is the Python API's function (rollsim.api).
-from rollsim.callable_module import make_callable  # noqa: E402
-
-make_callable(__name__)

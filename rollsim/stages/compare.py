@@ -9,7 +9,7 @@ decoder author runs first: where does mine win, where does it lose.
 
 from __future__ import annotations
 
-from rollsim.text_tables import format_table
+from rollsim.plumbing.text_tables import format_table
 
 # Outcomes in the order the tables list them.
 OUTCOME_ORDER = ("ok", "undetected_error", "corrupted", "missed", "not_visible")
@@ -21,7 +21,7 @@ def compare_evaluations(a, b, names: tuple[str, str] = ("A", "B")) -> dict:
     Parameters
     ----------
     a, b : Evaluation
-        :func:`rollsim.evaluate.evaluate` of two decoders' records on the
+        :func:`rollsim.stages.evaluate.evaluate` of two decoders' records on the
         same truth (so the same emissions, in the same order).
     names : (str, str)
         What to call them.

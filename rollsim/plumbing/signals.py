@@ -3,7 +3,7 @@
 The command's main process turns both signals into
 :class:`rollsim.errors.Interrupted`, an exception that unwinds the stack like
 :class:`KeyboardInterrupt`: worker pools kill their processes
-(:mod:`rollsim.parallel`), staging areas are removed (:mod:`rollsim.outputs`),
+(:mod:`rollsim.plumbing.parallel`), staging areas are removed (:mod:`rollsim.plumbing.outputs`),
 and the CLI exits with ``128 + signum``. A second signal during that
 clean-up ends the process at once with the same status: a clean-up that
 hangs (a scheduler that never answers, a network file system) never makes
