@@ -80,7 +80,8 @@ def test_the_python_tour_writes_only_into_its_folder(tmp_path, monkeypatch, give
     monkeypatch.chdir(tmp_path)
     module = runpy.run_path(str(ROOT / "examples" / "tour.py"))
     if not given:  # where the plot goes does not depend on the table: one real run (above) is enough
-        module["tour"] = lambda n_frames: [{"distance_cm": d, "ok_fraction": 0.5, "M": 1, "N": 1} for d in (5, 10)]
+        module["main"].__globals__["tour"] = lambda n_frames: [
+            {"distance_cm": d, "ok_fraction": 0.5, "M": 1, "N": 1} for d in (5, 10)]
     out = tmp_path / "a" / "b"
     path = module["main"](["--out", str(out), "--frames", "8"] if given else ["--frames", "8"])
     assert path.exists() and path.name == "tour.png"
