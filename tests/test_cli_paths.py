@@ -152,13 +152,13 @@ def test_a_sweep_makes_the_missing_folders_of_its_out(work, capsys):
 def test_a_benchmark_out_gets_its_folders_and_loses_them_when_it_fails(work, capsys, monkeypatch, fails):
     # The benchmark's own check of --out (rollsim.bench.accuracy.output_paths) meets the folders made.
     from rollsim.bench import accuracy
-    from rollsim.plumbing.outputs import write_files_into
+    from rollsim.plumbing.outputs import write_files
 
     def bench(args) -> int:
         paths = accuracy.output_paths(Path(args.out), args.force)
         if fails:
             raise RollsimError("the benchmark failed")
-        write_files_into(Path(args.out), {paths["accuracy.md"]: "# accuracy\n"})
+        write_files({paths["accuracy.md"]: "# accuracy\n"})
         return 0
 
     monkeypatch.setattr(accuracy, "main", bench)

@@ -523,10 +523,10 @@ def output_paths(out_dir: Path, force: bool) -> dict[str, Path]:
 
 def write_outputs(result: dict, paths: dict[str, Path], force: bool = False) -> None:
     """CSV tables, JSON, Markdown tables and the Pareto plot, committed together."""
-    from rollsim.plumbing.outputs import figure_png, write_files_into
+    from rollsim.plumbing.outputs import figure_png, write_files
     from rollsim.report.plots import plot_accuracy_pareto
 
-    write_files_into(next(iter(paths.values())).parent, {
+    write_files({
         paths["accuracy.csv"]: to_csv(accuracy_rows(result), ACCURACY_COLUMNS),
         paths["effects_cost.csv"]: to_csv(result["effects_cost"], COST_COLUMNS),
         paths["accuracy.json"]: json.dumps(result, indent=2, allow_nan=False) + "\n",

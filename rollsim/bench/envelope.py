@@ -443,7 +443,7 @@ def format_markdown(result: dict) -> str:
 
 def write_outputs(result: dict, maps: list[EnvelopeMap], paths: dict[str, Path], force: bool = False) -> None:
     """Each map's CSV and PNG, and the boundary table, committed together."""
-    from rollsim.plumbing.outputs import figure_png, write_files_into
+    from rollsim.plumbing.outputs import figure_png, write_files
     from rollsim.sweeps.table import csv_text
 
     contents: dict = {paths["envelope.md"]: format_markdown(result) + "\n",
@@ -453,7 +453,7 @@ def write_outputs(result: dict, maps: list[EnvelopeMap], paths: dict[str, Path],
         rows = result["maps"][m.name]
         contents[paths[f"{m.name}.csv"]] = csv_text(rows, map_columns(m, rows))
         contents[paths[f"{m.name}.png"]] = figure_png(functools.partial(plot_map, m, rows, bounds[m.name]))
-    write_files_into(next(iter(paths.values())).parent, contents, force=force)
+    write_files(contents, force=force)
 
 
 def command_line(args) -> str:

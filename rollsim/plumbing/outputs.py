@@ -860,16 +860,6 @@ def check_directory_files(directory: PathLike, names: Iterable[str], force: bool
     return check_file_targets([directory / name for name in names], force)
 
 
-def write_files_into(directory: PathLike, contents: dict, force: bool = False) -> None:
-    """:func:`write_files` of files in ``directory`` (named by the benchmarks' callers).
-
-    :func:`write_files` makes the missing folders as it writes, and removes
-    them again when the files cannot be written: a failed command leaves
-    nothing behind.
-    """
-    write_files(contents, force)
-
-
 def figure_png(draw: Callable[[object], None]) -> bytes:
     """PNG bytes of a plot that ``draw(file)`` saves to a file object."""
     import io
