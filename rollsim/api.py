@@ -961,8 +961,9 @@ class Calibration(Shown):
     mmbp : MmbpModel
     ge : rollsim.calibrate.ge.GeFit
     report : dict
-        Everything ``calibration.json`` holds: criteria, run lengths,
-        whole-message curves, the physics' prediction.
+        Everything ``calibration.json`` holds: criteria, held-out
+        likelihoods, the position model, run lengths, whole-message curves,
+        goodput predicted against replayed, the physics' prediction.
     """
 
     mmbp: MmbpModel
@@ -970,13 +971,16 @@ class Calibration(Shown):
     report: dict
 
     def _figures(self):
-        ge = self.ge
-        return "", [*self.mmbp._figures()[1], ("GE p", ge.p), ("GE q", ge.q), ("GE p_e", ge.p_e),
-                    ("selected by BIC", self.report["selected_by_bic"])]
+        ge, position = self.ge, self.report.get("position")
+        steps = [("position steps", position["segments"])] if position else []
+        selected = self.report.get("selected_by_heldout")
+        return "", [*self.mmbp._figures()[1], ("GE p", ge.p), ("GE q", ge.q), ("GE p_e", ge.p_e), *steps,
+                    ("selected by BIC", self.report["selected_by_bic"]),
+                    *([("by held-out likelihood", selected)] if selected else [])]
 
 
 def calibrate(result: Result, n_packets: Optional[int] = None, seed: int = 1) -> Calibration:
-    """Fit the MMBP and Gilbert-Elliott models to a run's outcomes.
+    """Fit the MMBP, Gilbert-Elliott and position models to a run's outcomes.
 
     Parameters
     ----------

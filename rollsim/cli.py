@@ -471,7 +471,7 @@ def cmd_fit_camera(args) -> int:
 
 
 def cmd_calibrate(args) -> int:
-    """Fit the MMBP and Gilbert-Elliott models to an outcome trace."""
+    """Fit the MMBP, Gilbert-Elliott and position models to an outcome trace."""
     from rollsim.calibrate import calibrate, format_calibration, load_trace
 
     result = calibrate(load_trace(Path(args.trace)), n_packets=args.n_packets)
@@ -521,6 +521,11 @@ def cmd_run(args) -> int:
 
         print(f"MMBP fit: M = {mmbp['M']}, N = {mmbp['N']}, {p_e_text(mmbp)}; "
               f"physics prediction M = {prediction['M']}, N = {prediction['N']}")
+        selected, agreement = summary.calibration.get("selected_by_heldout"), summary.calibration.get("goodput_agreement")
+        if selected and agreement:
+            counts = agreement[selected]
+            print(f"selected by held-out likelihood: {selected}; its goodput agrees with the replayed trace in "
+                  f"{counts['agree']} of {counts['rows']} (RP and RS, r = 1-6)")
     times = ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in summary.timings.items())
     print(f"time: {times}")
     print(f"report: {summary.out_dir / 'report.md'}")
@@ -601,11 +606,25 @@ def cmd_simulate(args) -> int:
     camcomsim_file = args.format == "camcomsim"
     if camcomsim_file and not args.json:
         raise RollsimError("--format camcomsim: sets the layout of the JSON file; give --json FILE too")
+    fitted = args.channel == "fitted"
+    if fitted != (args.calibration is not None):
+        raise RollsimError("--channel fitted: give --calibration FILE" if fitted else
+                           "--calibration: only with --channel fitted")
+    if args.model is not None and not fitted:
+        raise RollsimError("--model: only with --channel fitted")
+    calibration = None
+    if fitted:
+        from rollsim.calibrate.fitted_channel import read_calibration
+
+        calibration = read_calibration(args.calibration)  # before the scene: a bad file is refused first
+    kind = "mmbp" if fitted else args.channel
     overrides = [*args.overrides, *([f"seed={args.seed}"] if args.seed is not None else [])]
-    scene = load_scene(args.scene, overrides, relax=scene_relaxations(args.channel))
+    scene = load_scene(args.scene, overrides, relax=scene_relaxations(kind))
     try:
         check_runs_first(scene, args.runs, args.workers, args.max_emissions, camcomsim_file)
-        setup = broadcast_from_scene(scene, args.channel)
+        setup = broadcast_from_scene(scene, kind)
+        if calibration is not None:
+            setup = _fitted_setup(setup, calibration, args)
         for warning in setup.warnings:
             _simulation_warning(warning)
         with tqdm(total=args.runs, unit="run", desc=f"simulate {args.channel}", disable=args.quiet or None) as bar:
@@ -632,6 +651,18 @@ def cmd_simulate(args) -> int:
     _write_outputs(args, {args.json: text})
     print(_format_simulation(summary, args.channel))
     return EXIT_OK
+
+
+def _fitted_setup(setup, calibration: dict, args):
+    """The scene's broadcast over the channel a calibration fitted (``--channel fitted``)."""
+    from dataclasses import replace
+
+    from rollsim.calibrate.fitted_channel import channel_from_calibration
+
+    channel, name = channel_from_calibration(calibration, setup.channel.emission_duration_s, args.model,
+                                             source=str(args.calibration))
+    args.channel = f"fitted {name}"
+    return replace(setup, channel=channel)
 
 
 def _format_simulation(summary: dict, channel: str) -> str:
@@ -832,7 +863,7 @@ def _add_pixel_commands(sub) -> None:
     _inputs(p, paths=["frames"], scenes=["scene"])
     p.set_defaults(func=cmd_fit_camera)
 
-    p = sub.add_parser("calibrate", help="fit MMBP (M, N, p_e) and Gilbert-Elliott models to an outcome trace")
+    p = sub.add_parser("calibrate", help="fit the MMBP (M, N, p_e), Gilbert-Elliott and position models to an outcome trace")
     p.add_argument("trace", metavar="DIR|TRACE.csv", help="an evaluated render directory, or a CSV with a success column")
     p.add_argument("--n-packets", type=_positive_int, default=None,
                    help="N_p of the whole-message comparison (default: the scene's, else 50)")
@@ -858,7 +889,12 @@ def _add_channel_commands(sub) -> None:
 
     p = sub.add_parser("simulate", help="broadcast the scene's message over a channel model (CamComSim's job)")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
-    p.add_argument("--channel", choices=("mmbp", "timed", "camcomsim"), default="mmbp", help="channel model (default mmbp)")
+    p.add_argument("--channel", choices=("mmbp", "timed", "camcomsim", "fitted"), default="mmbp",
+                   help="channel model (default mmbp); fitted: a model from --calibration")
+    p.add_argument("--calibration", default=None, metavar="FILE",
+                   help="fitted: a calibration JSON (rollsim calibrate --json, or a run's calibration.json)")
+    p.add_argument("--model", choices=("mmbp", "ge", "position"), default=None,
+                   help="fitted: which fitted model (default: the one the held-out likelihood selected)")
     p.add_argument("--runs", type=_positive_int, default=1000, help="independent runs (default 1000)")
     p.add_argument("--seed", type=_non_negative_int, default=None, help="seed (default: the scene's)")
     p.add_argument("--max-emissions", type=_positive_int, default=50_000, help="cap per run (default 50000, as in the paper)")
@@ -870,7 +906,7 @@ def _add_channel_commands(sub) -> None:
                    "with nbTxPhysdu, ..., simuParams)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_set_option(p)
-    _inputs(p, scenes=["scene"])
+    _inputs(p, paths=["calibration"], scenes=["scene"])
     p.set_defaults(func=cmd_simulate)
 
 

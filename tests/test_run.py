@@ -52,7 +52,7 @@ def test_report_links_six_readable_plots(run_dir):
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", report)
     assert [link.split("/")[-1] for link in links] == [
         "sample_frame.png", "row_profile.png", "outcome_timeline.png", "run_lengths.png",
-        "message_curves.png", "goodput_rp.png",
+        "message_curves.png", "goodput.png",
     ]
     for link in links:
         image = cv2.imread(str(run_dir / link))

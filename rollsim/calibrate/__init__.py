@@ -23,6 +23,7 @@ from rollsim.calibrate.compare import (
     simulate_mmbp_trace,
 )
 from rollsim.calibrate.ge import GeFit, fit_ge, ge_method_of_moments
+from rollsim.calibrate.goodput import agreement_summary, goodput_table
 from rollsim.calibrate.mmbp import (
     MmbpFit,
     clopper_pearson,
@@ -32,7 +33,8 @@ from rollsim.calibrate.mmbp import (
     wilson_interval,
     zero_failure_bound,
 )
-from rollsim.calibrate.replay import mmbp_goodput_bps, replay_goodput_bps
+from rollsim.calibrate.heldout import ge_heldout, mmbp_heldout
+from rollsim.calibrate.position import PositionFit, fit_position, frame_offsets
 from rollsim.calibrate.trace import Trace, load_trace
 from rollsim.errors import RollsimError
 
@@ -82,26 +84,61 @@ def physics_prediction(scene: Scene) -> dict:
     }
 
 
-def goodput_consistency(success, mmbp: MmbpFit, scene: Scene, r_values=range(1, 7), seed: int = 1) -> list[dict]:
-    """RP(r) goodput the fitted MMBP predicts (event simulator) against the trace replayed.
+def goodput_consistency(table: list[dict], model: str = "mmbp", strategy: str = "rp") -> list[dict]:
+    """One model's rows of :func:`rollsim.calibrate.goodput.goodput_table` for one strategy.
 
-    The paper's "within 10 % of the testbed", with the rendered trace as the
-    testbed. Rows: ``r``, ``predicted_bps``, ``replayed_bps`` (capped replays
-    count as 0; None for an empty trace), ``relative_difference`` (predicted / replayed − 1).
+    Rows: ``r``, ``predicted_bps``, ``replayed_bps`` (None for an empty
+    trace), ``replayed_ci95``, ``relative_difference`` (predicted / replayed − 1), ``agrees``.
     """
+    keys = ("r", "predicted_bps", "replayed_bps", "replayed_ci95", "relative_difference", "agrees")
+    return [{k: row[k] for k in keys} for row in table if row["model"] == model and row["strategy"] == strategy]
+
+
+def _aligned(trace: Trace) -> bool:
+    return (trace.scene is not None and trace.start_s is not None and trace.frame_starts_s is not None
+            and trace.frame_starts_s.size > 0)
+
+
+def _frame_clock(trace: Trace) -> tuple[float, float]:
     from rollsim.channel.scene_channel import sdu_duration_from_scene
 
-    link = scene.link
-    sdu_s, packets = sdu_duration_from_scene(scene), _scene_packets(scene)
-    rows = []
-    for r in r_values:
-        predicted = mmbp_goodput_bps(
-            mmbp.M, mmbp.N, mmbp.p_e, r, packets, link.payload_bits, link.header_bits, sdu_s, seed=seed
-        )
-        replayed = replay_goodput_bps(success, r, packets, link.payload_bits, sdu_s)["goodput_bps"]
-        difference = predicted / replayed - 1.0 if replayed else None
-        rows.append({"r": r, "predicted_bps": predicted, "replayed_bps": replayed, "relative_difference": difference})
-    return rows
+    assert trace.scene is not None
+    return trace.scene.camera.frame_period_s, sdu_duration_from_scene(trace.scene)
+
+
+def fit_position_model(trace: Trace):
+    """The position model (:mod:`rollsim.calibrate.position`) of a trace with its frames, else None."""
+    if not _aligned(trace):
+        return None
+    frame_period_s, sdu_s = _frame_clock(trace)
+    return fit_position(trace.success, trace.start_s, trace.frame_starts_s, frame_period_s, sdu_s)
+
+
+def heldout_logliks(trace: Trace, position, ge: GeFit | None = None) -> dict:
+    """Held-out log-likelihood of each model over folds of frames (:mod:`rollsim.calibrate.heldout`);
+    empty without frame times."""
+    if not _aligned(trace) or position is None:
+        return {}
+    frame_period_s, sdu_s = _frame_clock(trace)
+    frame, _ = frame_offsets(trace.start_s, trace.frame_starts_s, frame_period_s)
+    success = np.asarray(trace.success, dtype=bool)
+    return {
+        "mmbp": mmbp_heldout(success, trace.start_s, trace.frame_starts_s, frame, frame_period_s, sdu_s),
+        "ge": ge_heldout(success, frame, ge),
+        "position": position.cv_loglik.get(position.segments),
+    }
+
+
+def model_profiles(mmbp: MmbpFit, position, frame_period_s: float, sdu_duration_s: float) -> dict:
+    """Each periodic model as slot profiles for the exact goodput (:mod:`rollsim.channel.periodic`)."""
+    from rollsim.calibrate.goodput import mmbp_profile
+    from rollsim.channel.position import slot_profiles
+
+    profiles = {"mmbp": mmbp_profile(mmbp.M, mmbp.N, mmbp.p_e)}
+    if position is not None:
+        slots = slot_profiles(frame_period_s, sdu_duration_s, position.edges_s, position.success)
+        profiles["position"] = (slots.success, slots.weights)
+    return profiles
 
 
 def _run_length_comparison(success, mmbp: MmbpFit, ge: GeFit, seed: int) -> dict:
@@ -140,6 +177,7 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
         mmbp = fit_mmbp(trace)
         ge = fit_ge(success)
         ge_moments = ge_method_of_moments(success) if success.size >= 3 else None
+        position = fit_position_model(trace)
     except ValueError as exc:
         raise RollsimError(f"{trace.source}: {exc}") from None
     if n_packets is None:
@@ -150,6 +188,15 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
         "mmbp": information_criteria(mmbp.loglik, MMBP_PARAMETERS + int(mmbp.off_successes > 0), n),
         "ge": information_criteria(ge.loglik, GE_PARAMETERS, n),
     }
+    if position is not None:
+        criteria["position"] = information_criteria(position.loglik, position.parameters, n)
+    heldout = heldout_logliks(trace, position, ge)
+    scored = {k: v for k, v in heldout.items() if v is not None}
+    table = None
+    if scene is not None:
+        frame_period_s, sdu_s = _frame_clock(trace)
+        table = goodput_table(success, scene.link, sdu_s, _scene_packets(scene),
+                              model_profiles(mmbp, position, frame_period_s, sdu_s), ge=ge, seed=seed)
     result = {
         "source": trace.source,
         "emissions": int(n),
@@ -157,13 +204,18 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
         "mmbp": mmbp.as_dict(),
         "ge": ge.as_dict(),
         "ge_moments": ge_moments.as_dict() if ge_moments is not None else None,
+        "position": position.as_dict() if position is not None else None,
         "criteria": criteria,
+        "heldout_loglik": heldout,
         "selected_by_aic": min(criteria, key=lambda k: criteria[k]["aic"]),
         "selected_by_bic": min(criteria, key=lambda k: criteria[k]["bic"]),
+        "selected_by_heldout": max(scored, key=lambda k: scored[k]) if scored else None,
         "run_lengths": _run_length_comparison(success, mmbp, ge, seed),
         "message": {"n_packets": n_packets, "curves": message_curves(success, mmbp, ge, n_packets)},
         "prediction": physics_prediction(scene) if scene is not None else None,
-        "goodput_rp": goodput_consistency(success, mmbp, scene, seed=seed) if scene is not None else None,
+        "goodput": table,
+        "goodput_agreement": agreement_summary(table) if table is not None else None,
+        "goodput_rp": goodput_consistency(table) if table is not None else None,
     }
     return result
 
@@ -177,6 +229,7 @@ def _scene_packets(scene: Scene) -> int:
 __all__ = [
     "GeFit",
     "MmbpFit",
+    "PositionFit",
     "Trace",
     "calibrate",
     "clopper_pearson",
@@ -187,6 +240,8 @@ __all__ = [
     "fit_mmbp",
     "fit_mmbp_aligned",
     "fit_mmbp_cycle",
+    "fit_position",
+    "fit_position_model",
     "format_calibration",
     "ge_method_of_moments",
     "goodput_consistency",
@@ -216,23 +271,55 @@ def format_calibration(result: dict) -> str:
             f"physics prediction: M = {prediction['M']}, N = {prediction['N']} "
             f"({prediction['mean_whole_sdus_per_frame']:.3f} whole PHY-SDUs per frame)"
         )
-    criteria = result["criteria"]
-    rows = [(name, _number(fit["loglik"], 6), _number(criteria[name]["aic"], 6), _number(criteria[name]["bic"], 6))
-            for name, fit in (("mmbp", m), ("ge", ge))]
-    lines += ["", format_table(rows, ("model", "log L", "AIC", "BIC")),
-              f"selected by AIC: {result['selected_by_aic']}, by BIC: {result['selected_by_bic']}", ""]
+    position = result.get("position")
+    if position is not None:
+        lines.append(position_text(position, _number))
+    criteria, heldout = result["criteria"], result.get("heldout_loglik") or {}
+    fits = {"mmbp": m, "ge": ge, "position": position}
+    rows = [(name, _number(fits[name]["loglik"], 6), _number(criteria[name]["aic"], 6), _number(criteria[name]["bic"], 6),
+             "n/a" if heldout.get(name) is None else _number(heldout[name], 6)) for name in criteria]
+    lines += ["", format_table(rows, ("model", "log L", "AIC", "BIC", "held-out log L")),
+              f"selected by AIC: {result['selected_by_aic']}, by BIC: {result['selected_by_bic']}"
+              + (f", by held-out likelihood: {result['selected_by_heldout']}" if result.get("selected_by_heldout") else ""),
+              ""]
     curves = result["message"]["curves"]
     curve_rows = [(c["r"], c["strategy"], _number(c["mmbp"]), _number(c["ge"]), _number(c["empirical"]))
                   for c in curves]
     lines += [f"P(whole message of {result['message']['n_packets']} packets in one round)",
               format_table(curve_rows, ("r", "strategy", "MMBP", "GE", "empirical"))]
-    goodput = result.get("goodput_rp")
-    if goodput:
-        rows = [(g["r"], _number(g["predicted_bps"], 5), _number(g["replayed_bps"], 5),
-                 "n/a" if g["relative_difference"] is None else f"{100 * g['relative_difference']:+.1f} %") for g in goodput]
-        lines += ["", "RP goodput (bit/s): fitted MMBP (event simulator) against the trace replayed",
-                  format_table(rows, ("r", "MMBP", "replayed", "difference"))]
+    if result.get("goodput"):
+        lines += ["", goodput_text(result["goodput"], _number)]
     return "\n".join(lines)
+
+
+def position_text(position: dict, number) -> str:
+    """The position model in one line: its steps (offsets in PHY-SDUs from the first edge) and rates."""
+    steps = ", ".join(f"{a:.3f}–{b:.3f}: {number(q)}" for a, b, q in
+                      zip(position["edges_sdu"][:-1], position["edges_sdu"][1:], position["success"]))
+    return f"position model ({position['segments']} steps, by held-out likelihood): success by start offset [T_p] {steps}"
+
+
+def goodput_text(table: list[dict], number) -> str:
+    """Predicted against replayed goodput, a row per strategy and r, a column per model."""
+    from rollsim.plumbing.text_tables import format_table
+
+    models = list(dict.fromkeys(row["model"] for row in table))
+    keyed = {(row["strategy"], row["r"], row["model"]): row for row in table}
+    rows = []
+    for strategy, r in dict.fromkeys((row["strategy"], row["r"]) for row in table):
+        first = keyed[(strategy, r, models[0])]
+        low_high = first["replayed_ci95"]
+        cells = []
+        for model in models:
+            row = keyed[(strategy, r, model)]
+            diff = "n/a" if row["relative_difference"] is None else f"{100 * row['relative_difference']:+.1f} %"
+            diff = "not computed" if row["predicted_bps"] is None else diff
+            cells.append(diff + {True: "", False: " ✗", None: " ?"}[row["agrees"]])
+        rows.append((strategy.upper(), r, number(first["replayed_bps"], 5) if first["replayed_bps"] is not None else "n/a",
+                     "n/a" if low_high is None else f"{number(low_high[0], 4)}–{number(low_high[1], 4)}", *cells))
+    return ("goodput (bit/s) replayed over the trace, and each model's prediction against it "
+            "(✗: outside 3 % and the replay's 95 % interval; ?: outside 3 % of a trace too short for an interval)\n"
+            + format_table(rows, ("strategy", "r", "replayed", "95 % interval", *models)))
 
 
 # rollsim.calibrate(...) is the Python API's function (rollsim.api).

@@ -56,30 +56,11 @@ def simulate_mmbp_trace(M: int, N: int, p_e: float, n: int, rng: np.random.Gener
 
 
 def simulate_ge_trace(p: float, q: float, p_e: float, n: int, rng: np.random.Generator) -> np.ndarray:
-    """A 0/1 trace of n emissions from Gilbert-Elliott, stationary start.
+    """A 0/1 trace of n emissions from Gilbert-Elliott, stationary start (states by
+    :func:`rollsim.channel.markov.ge_path`: no loop per emission)."""
+    from rollsim.channel.markov import ge_path
 
-    Sojourn times are geometric, so the state path is built from runs: no
-    loop per emission.
-    """
-    state_s1 = rng.random() < p / (p + q)
-    runs, states, total = [], [], 0
-    while total < n:
-        # Draw sojourns in blocks; S1 stays with 1 - q, S2 with 1 - p. An
-        # even block keeps the alternation of states across blocks.
-        block = 2 * max(8, int(n * min(p, q) + 8))
-        leave = np.where(np.arange(block) % 2 == 0, q if state_s1 else p, p if state_s1 else q)
-        lengths = rng.geometric(np.clip(leave, 1e-12, 1.0))
-        runs.append(lengths)
-        states.append((np.arange(block) % 2 == 0) == state_s1)
-        total += int(lengths.sum())
-    lengths, in_s1 = np.concatenate(runs), np.concatenate(states)
-    # Cut the runs at n emissions before expanding them: a sojourn can be far
-    # longer than the trace (q close to 0).
-    ends = np.cumsum(lengths)
-    last = int(np.searchsorted(ends, n))
-    lengths = lengths[: last + 1].copy()
-    lengths[-1] -= int(ends[last]) - n
-    path = np.repeat(in_s1[: last + 1], lengths)
+    path = ge_path(p, q, n, rng, bool(rng.random() < p / (p + q)))
     return path & (rng.random(n) >= p_e)
 
 

@@ -153,12 +153,14 @@ def _from_unit(u):
     return logit(np.clip((np.asarray(u) - _EDGE) / (1 - 2 * _EDGE), 1e-12, 1 - 1e-12))
 
 
-def fit_ge(success) -> GeFit:
+def fit_ge(success, start: GeFit | None = None) -> GeFit:
     """Maximum-likelihood Gilbert-Elliott parameters of a 0/1 trace.
 
     Direct optimisation of :func:`ge_loglik` over logit-transformed (p, q,
     p_e), started from the moment estimates and a few spread points; the
-    best optimum is kept.
+    best optimum is kept. With ``start`` (a fit to a similar trace: the
+    held-out likelihood refits each fold from the whole trace's fit), only
+    that point is started from.
     """
     success = np.asarray(success, dtype=bool)
     if success.size == 0:
@@ -176,15 +178,17 @@ def fit_ge(success) -> GeFit:
         return -value if np.isfinite(value) else 1e300
 
     starts = [(0.5, 0.5, 0.1), (0.1, 0.1, 0.01), (0.9, 0.1, 0.001), (0.3, 0.05, 0.05)]
-    if success.size >= 3:
+    if start is not None:
+        starts = [(start.p, start.q, start.p_e)]
+    elif success.size >= 3:
         mom = ge_method_of_moments(success)
         starts.insert(0, (mom.p, mom.q, max(mom.p_e, 1e-6)))
     best = None
-    for start in starts:
-        result = minimize(objective, _from_unit(np.array(start)), method="Nelder-Mead",
+    for point in starts:
+        result = minimize(objective, _from_unit(np.array(point)), method="Nelder-Mead",
                           options={"xatol": 1e-7, "fatol": 1e-9, "maxiter": 4000})
         if best is None or result.fun < best.fun:
             best = result
-    assert best is not None  # four starts at least
+    assert best is not None  # one start at least
     p, q, p_e = (float(v) for v in _to_unit(best.x))
     return GeFit(p, q, p_e, -float(best.fun), "maximum likelihood")

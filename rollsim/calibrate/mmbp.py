@@ -345,9 +345,7 @@ def fit_mmbp_aligned(success, start_s, frame_starts_s, frame_period_s: float, sd
     # Offset of each start within the frame period it falls in.
     k = np.clip(np.searchsorted(frames, start_s, side="right") - 1, 0, frames.size - 1)
     offset = np.mod(start_s - frames[k], frame_period_s)
-    # The arc of offsets, to the resolution of a thousandth of a PHY-SDU.
-    bins = max(1, int(math.ceil(frame_period_s / (sdu_duration_s * 1e-3))))
-    index = np.minimum((offset / frame_period_s * bins).astype(np.int64), bins - 1)
+    index, bins = offset_bins(offset, frame_period_s, sdu_duration_s)
     first, length, loglik = leak_trimmed_arc(index, success, bins)
     on = ((index - first) % bins) < length
     trials = int(on.sum())
@@ -360,3 +358,10 @@ def fit_mmbp_aligned(success, start_s, frame_starts_s, frame_period_s: float, sd
     M = min(cycle, int(round(mean_on)))
     fit = _fit(M, cycle - M, failures, trials, first * frame_period_s / bins, mean_on, "aligned")
     return replace(fit, loglik=loglik, off_successes=int(np.count_nonzero(success & ~on)))
+
+
+def offset_bins(offset_s: np.ndarray, frame_period_s: float, sdu_duration_s: float) -> tuple[np.ndarray, int]:
+    """Start offsets within the frame as bins of a thousandth of a PHY-SDU: (bin of each, bins per frame)."""
+    bins = max(1, int(math.ceil(frame_period_s / (sdu_duration_s * 1e-3))))
+    index = np.minimum((np.asarray(offset_s) / frame_period_s * bins).astype(np.int64), bins - 1)
+    return index, bins

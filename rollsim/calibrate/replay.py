@@ -1,4 +1,4 @@
-"""Goodput measured by replaying a trace, and predicted by the MMBP simulator.
+"""Goodput measured by replaying a trace.
 
 Replaying reads the trace as a channel realisation: emission e of a
 broadcast that starts at trace position w gets the trace's outcome at
@@ -20,8 +20,7 @@ import math
 
 import numpy as np
 
-from rollsim.channel.channels import MmbpChannel
-from rollsim.channel.eventsim import DEFAULT_MAX_EMISSIONS, simulate_broadcast
+from rollsim.channel.eventsim import DEFAULT_MAX_EMISSIONS
 from rollsim.transmitter import Schedule
 
 _NEVER = np.iinfo(np.int64).max
@@ -68,22 +67,25 @@ def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_d
     -------
     dict
         ``goodput_bps`` (mean over the starts, capped replays as 0; None
-        for an empty trace), ``replays`` (starts replayed), ``capped``
-        (replays that hit ``max_emissions``) and ``trace_rounds`` (the
-        trace's length in rounds of ``r * n_packets`` emissions: below 1,
-        every replay reuses outcomes of the trace).
+        for an empty trace), ``ci95`` (its 95 % interval by batch means,
+        :func:`batch_means_interval`, batches at least a replay long; None
+        for a trace shorter than two replays),
+        ``replays`` (starts replayed), ``capped`` (replays that hit
+        ``max_emissions``) and ``trace_rounds`` (the trace's length in
+        rounds of ``r * n_packets`` emissions: below 1, every replay
+        reuses outcomes of the trace).
     """
     x = np.asarray(success, dtype=bool)
     horizon = x.size
     rounds = horizon / (r * n_packets)
     if horizon == 0:
-        return {"goodput_bps": None, "replays": 0, "capped": 0, "trace_rounds": rounds}
+        return {"goodput_bps": None, "ci95": None, "replays": 0, "capped": 0, "trace_rounds": rounds}
     schedule = Schedule(strategy, n_packets, r)
     hits = np.flatnonzero(x)
     starts = np.unique(np.linspace(0, horizon - 1, max_starts).astype(np.int64))
     # Most replays end within a few rounds: try that first, then the full cap.
     short = min(max_emissions, 4 * r * n_packets + horizon)
-    goodputs, capped = [], 0
+    goodputs, lengths, capped = [], [], 0
     for w in starts.tolist():
         done = _first_receptions(hits, horizon, w, schedule.sequence_numbers, n_packets, short)
         if done < 0 and short < max_emissions:
@@ -91,23 +93,38 @@ def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_d
         if done < 0:
             capped += 1
             goodputs.append(0.0)
+            lengths.append(max_emissions)
             continue
         goodputs.append(payload_bits * n_packets / ((done + 1) * sdu_duration_s))
-    return {"goodput_bps": float(np.mean(goodputs)), "replays": len(goodputs), "capped": capped,
-            "trace_rounds": rounds}
+        lengths.append(done + 1)
+    # A batch must outlast a replay, or neighbouring batches share outcomes.
+    batches = min(REPLAY_BATCHES, int(horizon // max(1.0, float(np.mean(lengths)))))
+    return {"goodput_bps": float(np.mean(goodputs)), "ci95": batch_means_interval(np.array(goodputs), batches),
+            "replays": len(goodputs), "capped": capped, "trace_rounds": rounds}
 
 
-def mmbp_goodput_bps(M: int, N: int, p_e: float, r: int, n_packets: int, payload_bits: int, header_bits: int,
-                     sdu_duration_s: float, runs: int = 2000, seed: int = 1) -> float:
-    """Mean goodput of RP(r) that the ``mmbp`` event simulator predicts.
+# Batches of consecutive starts for the replay's interval: at most a tenth
+# of the trace each (30 frames of a 300-frame trace, several cycles of the
+# frame and emission clocks), and never shorter than a replay's mean length,
+# so that replays that share outcomes fall mostly in one batch. A trace
+# shorter than two replays has no interval.
+REPLAY_BATCHES = 10
 
-    A channel with no ON slot, or p_e = 1, never delivers: 0 without
-    simulating runs that could only hit the emission cap.
+
+def batch_means_interval(values: np.ndarray, batches: int = REPLAY_BATCHES) -> tuple[float, float] | None:
+    """95 % interval of the mean of a correlated series by batch means.
+
+    The series is cut into ``batches`` contiguous batches; their means are
+    treated as independent, and the interval is Student's t on them. None
+    with fewer than two batches.
     """
-    if M == 0 or p_e >= 1.0:
-        return 0.0
-    result = simulate_broadcast(
-        MmbpChannel(M, N, p_e, sdu_duration_s), Schedule("rp", n_packets, r),
-        header_bits=header_bits, payload_bits=payload_bits, runs=runs, seed=seed, workers=1,
-    )
-    return float(result.summary()["metrics"]["goodput_bps"]["mean"])
+    from scipy.special import stdtrit
+
+    values = np.asarray(values, dtype=np.float64)
+    count = min(batches, values.size)
+    if count < 2:
+        return None
+    means = np.array([chunk.mean() for chunk in np.array_split(values, count)])
+    half = float(stdtrit(count - 1, 0.975)) * float(means.std(ddof=1)) / count**0.5
+    centre = float(values.mean())
+    return centre - half, centre + half

@@ -1,10 +1,14 @@
-"""Channel layer: exact MMBP and Gilbert-Elliott analysis, and the event simulator.
+"""Channel layer: exact MMBP, Gilbert-Elliott and periodic-channel analysis, and the event simulator.
 
 :mod:`rollsim.channel.analytic` holds the closed forms, checked against
-enumeration; :mod:`rollsim.channel.eventsim` broadcasts messages over the
-``mmbp``, ``timed`` and ``camcomsim`` channels of
-:mod:`rollsim.channel.channels`; :mod:`rollsim.channel.scene_channel` builds
-them from a scene.
+enumeration; :mod:`rollsim.channel.periodic` the exact figures of a cycle
+of slots each with its own success probability (the MMBP, and the
+position model's slot profiles from :mod:`rollsim.channel.position`);
+:mod:`rollsim.channel.eventsim` broadcasts messages over the ``mmbp``,
+``timed`` and ``camcomsim`` channels of :mod:`rollsim.channel.channels`,
+the ``periodic`` channel and the Gilbert-Elliott channel of
+:mod:`rollsim.channel.markov`; :mod:`rollsim.channel.scene_channel` builds
+the first three from a scene.
 """
 
 from rollsim.channel.channels import (
@@ -31,6 +35,9 @@ from rollsim.channel.eventsim import (
     summary_statistics,
     to_camcomsim,
 )
+from rollsim.channel.markov import GeChannel
+from rollsim.channel.periodic import PeriodicChannel, PeriodicFigures, exact_figures, goodput_bps
+from rollsim.channel.position import SlotProfiles, slot_profiles
 from rollsim.channel.scene_channel import (
     CHANNEL_KINDS,
     SceneBroadcast,
@@ -49,10 +56,14 @@ __all__ = [
     "DECODE_ERROR",
     "DEFAULT_MAX_EMISSIONS",
     "GAP_LOSS",
+    "GeChannel",
     "METRICS",
     "MmbpChannel",
+    "PeriodicChannel",
+    "PeriodicFigures",
     "RECEIVED",
     "SceneBroadcast",
+    "SlotProfiles",
     "TimedChannel",
     "broadcast_from_scene",
     "camcomsim_frame_slots",
@@ -61,9 +72,12 @@ __all__ = [
     "camcomsim_visible_slots",
     "capture_window_from_scene",
     "channel_from_scene",
+    "exact_figures",
+    "goodput_bps",
     "run_seed_sequence",
     "simulate_broadcast",
     "simulate_scene",
+    "slot_profiles",
     "summarize",
     "summary_statistics",
     "to_camcomsim",

@@ -11,6 +11,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from rollsim.calibrate import goodput_text, position_text
 from rollsim.calibrate.mmbp import p_e_text
 from rollsim.plumbing.text_tables import format_number, format_percent, markdown_table
 from rollsim.report.plots import (
@@ -95,15 +96,16 @@ def _calibration_lines(calibration: dict) -> list[str]:
             f"{prediction['capture_window_s'] * 1e3:.3f} ms, PHY-SDU {prediction['sdu_duration_s'] * 1e3:.3f} ms, "
             f"frame period {prediction['frame_period_s'] * 1e3:.3f} ms); the fit {agree}."
         )
-    goodput = calibration.get("goodput_rp")
-    if goodput:
-        goodput_rows = [
-            (g["r"], format_number(g["predicted_bps"], 5), format_number(g["replayed_bps"], 5),
-             "n/a" if g["relative_difference"] is None else f"{100 * g['relative_difference']:+.1f} %")
-            for g in goodput
-        ]
-        lines += ["", "RP goodput, the fitted MMBP's prediction (event simulator) against the pixel-level trace replayed:", ""]
-        lines += markdown_table(goodput_rows, ("r", "MMBP (bit/s)", "replayed (bit/s)", "difference"))
+    if calibration.get("position"):
+        lines += ["", position_text(calibration["position"], format_number) + "."]
+    heldout = calibration.get("heldout_loglik") or {}
+    if calibration.get("selected_by_heldout"):
+        scores = ", ".join(f"{name} {format_number(v, 6)}" for name, v in heldout.items() if v is not None)
+        lines += ["", f"Selected by held-out likelihood (folds of frames): **{calibration['selected_by_heldout']}** ({scores})."]
+    table = calibration.get("goodput")
+    if table:
+        lines += ["", "Goodput, each fitted model's prediction against the pixel-level trace replayed:", "",
+                  "```", goodput_text(table, format_number), "```"]
     return lines
 
 
@@ -194,8 +196,8 @@ def _draw_plots(run_dir: Path, scene: Scene, evaluation, calibration: dict | Non
             ("Run lengths", plot_run_lengths(calibration, plots / "run_lengths.png")),
             ("P(message): fitted models against the trace", plot_message_curves(calibration, plots / "message_curves.png")),
         ]
-        if calibration.get("goodput_rp"):
-            figures.append(("RP goodput: predicted against replayed", plot_goodput(calibration, plots / "goodput_rp.png")))
+        if calibration.get("goodput"):
+            figures.append(("Goodput: predicted against replayed", plot_goodput(calibration, plots / "goodput.png")))
     return figures
 
 

@@ -18,7 +18,8 @@ OUTCOME_COLOURS = {
     "missed": "#ff7f0e",
     "not_visible": "#bbbbbb",
 }
-MODEL_COLOURS = {"empirical": "#333333", "mmbp": "#1f77b4", "ge": "#ff7f0e"}
+MODEL_COLOURS = {"empirical": "#333333", "mmbp": "#1f77b4", "ge": "#ff7f0e", "position": "#2ca02c"}
+MODEL_NAMES = {"mmbp": "MMBP", "ge": "Gilbert-Elliott", "position": "position model"}
 
 
 def _figure(width_in: float, height_in: float, rows: int = 1, cols: int = 1):
@@ -165,18 +166,29 @@ def plot_message_curves(calibration: dict, path: Path) -> Path:
 
 
 def plot_goodput(calibration: dict, path: Path) -> Path:
-    """RP goodput for r = 1 … 6: the fitted MMBP's prediction against the replayed trace."""
-    rows = calibration.get("goodput_rp") or []
-    fig, axes = _figure(7.0, 3.6)
-    ax = axes[0, 0]
-    r = np.array([g["r"] for g in rows])
-    ax.bar(r - 0.2, [g["predicted_bps"] for g in rows], width=0.4, color=MODEL_COLOURS["mmbp"], label="fitted MMBP (event simulator)")
-    ax.bar(r + 0.2, [g["replayed_bps"] or 0.0 for g in rows], width=0.4, color=MODEL_COLOURS["empirical"], label="pixel-level trace replayed")
-    ax.set_xticks(r)
-    ax.set_xlabel("r (RP copies)")
-    ax.set_ylabel("goodput (bit/s)")
-    ax.set_title("RP goodput: predicted against measured", fontsize=10)
-    ax.legend(fontsize=8)
+    """Goodput for RP and RS, r = 1 … 6: each fitted model's prediction against the trace replayed (95 % interval)."""
+    table = calibration.get("goodput") or []
+    fig, axes = _figure(10.0, 3.6, cols=2)
+    for ax, strategy in zip(axes[0], ("rp", "rs")):
+        rows = [g for g in table if g["strategy"] == strategy]
+        replayed = {g["r"]: g for g in rows}
+        r = np.array(sorted(replayed))
+        centre = np.array([replayed[k]["replayed_bps"] or 0.0 for k in r])
+        spans = [replayed[k]["replayed_ci95"] or [centre[i], centre[i]] for i, k in enumerate(r)]
+        error = np.abs(np.array(spans).T - centre)
+        ax.errorbar(r, centre, yerr=error, fmt="x", color=MODEL_COLOURS["empirical"], capsize=3, markersize=8,
+                    label="trace replayed (95 %)")
+        for model in dict.fromkeys(g["model"] for g in rows):
+            points = sorted((g["r"], g["predicted_bps"]) for g in rows if g["model"] == model and g["predicted_bps"] is not None)
+            if not points:
+                continue
+            ax.plot(*zip(*points), "-o", color=MODEL_COLOURS.get(model, "#777777"), markersize=4,
+                    label=MODEL_NAMES.get(model, model))
+        ax.set_xticks(r)
+        ax.set_xlabel("r (copies)")
+        ax.set_ylabel("goodput (bit/s)")
+        ax.set_title(f"{strategy.upper()}: predicted against replayed", fontsize=10)
+        ax.legend(fontsize=8)
     return _save(fig, path)
 
 

@@ -71,3 +71,26 @@ def test_a_packet_never_received_caps_every_replay_at_zero():
 def test_an_empty_trace_gives_no_goodput():
     got = replay_goodput_bps(np.zeros(0, dtype=bool), 1, 5, 19, 7e-3)
     assert got["goodput_bps"] is None and got["replays"] == 0
+
+
+def test_batch_means_interval_is_students_t_on_the_batch_means():
+    from scipy.stats import t
+
+    from rollsim.calibrate.replay import batch_means_interval
+
+    values = np.random.default_rng(3).normal(10.0, 2.0, 1000)
+    means = np.array([c.mean() for c in np.array_split(values, 10)])
+    half = t.ppf(0.975, 9) * means.std(ddof=1) / np.sqrt(10)
+    low, high = batch_means_interval(values, 10)
+    assert (low, high) == pytest.approx((values.mean() - half, values.mean() + half), rel=1e-12)
+    assert batch_means_interval(values, 1) is None
+
+
+def test_a_trace_shorter_than_two_replays_has_no_interval():
+    """Two packets, two successes 101 emissions apart (one per packet): a replay needs ~100 emissions, the trace holds 150."""
+    from rollsim.calibrate.replay import replay_goodput_bps
+
+    success = np.zeros(150, dtype=bool)
+    success[[10, 111]] = True
+    replay = replay_goodput_bps(success, 1, 2, 19, 0.007, max_starts=150)
+    assert replay["goodput_bps"] > 0 and replay["ci95"] is None
