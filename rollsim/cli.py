@@ -525,7 +525,7 @@ def cmd_run(args) -> int:
         if selected and agreement:
             counts = agreement[selected]
             print(f"selected by held-out likelihood: {selected}; its goodput agrees with the replayed trace in "
-                  f"{counts['agree']} of {counts['rows']} (RP and RS, r = 1-6)")
+                  f"{counts['agree']} of {counts['rows']} (RP and RS at r = 1-6, and rlnc where the header allows)")
     times = ", ".join(f"{stage} {seconds:.1f} s" for stage, seconds in summary.timings.items())
     print(f"time: {times}")
     print(f"report: {summary.out_dir / 'report.md'}")

@@ -196,7 +196,8 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
     if scene is not None:
         frame_period_s, sdu_s = _frame_clock(trace)
         table = goodput_table(success, scene.link, sdu_s, _scene_packets(scene),
-                              model_profiles(mmbp, position, frame_period_s, sdu_s), ge=ge, seed=seed)
+                              model_profiles(mmbp, position, frame_period_s, sdu_s), ge=ge, seed=seed,
+                              rlnc=rlnc_allowed(scene))
     result = {
         "source": trace.source,
         "emissions": int(n),
@@ -218,6 +219,14 @@ def calibrate(trace: Trace, n_packets: int | None = None, seed: int = 1) -> dict
         "goodput_rp": goodput_consistency(table) if table is not None else None,
     }
     return result
+
+
+def rlnc_allowed(scene: Scene) -> bool:
+    """Whether the scene's header can carry rlnc's seeds (as the scene's own rlnc rule asks)."""
+    from rollsim.protocol.rlnc import seed_space
+
+    header = scene.link.header_bits
+    return header >= 1 and seed_space(header) >= _scene_packets(scene)
 
 
 def _scene_packets(scene: Scene) -> int:

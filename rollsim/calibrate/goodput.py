@@ -1,6 +1,7 @@
 """Goodput each fitted channel model predicts, against the trace replayed.
 
-For every model and for RP and RS at r = 1 … 6, the mean goodput of a
+For every model, for RP and RS at r = 1 … 6 and for rlnc where the
+scene's header can carry its seeds, the mean goodput of a
 broadcast of the scene's message (capped broadcasts counting 0, as the
 event simulator and the paper count them) is predicted and set beside the
 same figure replayed over the trace (:func:`rollsim.calibrate.replay.replay_goodput_bps`,
@@ -33,6 +34,8 @@ R_VALUES = tuple(range(1, 7))
 STRATEGIES = ("rp", "rs")
 # A prediction within 3 % of the replay agrees (the wider of this and the replay's interval).
 AGREEMENT = 0.03
+# Replay starts, evenly spaced over the trace (as replay_goodput_bps).
+REPLAY_STARTS = 500
 GE_TRACE_LENGTHS = 20
 GE_STARTS = 1000
 
@@ -72,7 +75,7 @@ def _row(model, strategy, r, predicted, replay, method) -> dict:
 
 
 def goodput_table(success, link, sdu_duration_s: float, n_packets: int, profiles: dict, ge=None,
-                  r_values: Sequence[int] = R_VALUES, seed: int = 1) -> list[dict]:
+                  r_values: Sequence[int] = R_VALUES, seed: int = 1, rlnc: bool = False) -> list[dict]:
     """Predicted against replayed goodput for every model, strategy and r.
 
     Parameters
@@ -92,6 +95,10 @@ def goodput_table(success, link, sdu_duration_s: float, n_packets: int, profiles
     r_values : sequence of int
     seed : int
         Seed of the Gilbert-Elliott simulation.
+    rlnc : bool
+        Also the rateless broadcast (strategy ``rlnc``, r = 1), exact for
+        the periodic models (:mod:`rollsim.channel.periodic_rlnc`) and
+        replayed over the trace as RP and RS are.
 
     Returns
     -------
@@ -104,30 +111,62 @@ def goodput_table(success, link, sdu_duration_s: float, n_packets: int, profiles
     """
     from rollsim.calibrate.compare import simulate_ge_trace
     from rollsim.channel.analytic import ExactSumTooCostly
+    from rollsim.calibrate.replay import REPLAY_BATCHES, batch_means_interval
     from rollsim.channel.periodic import goodput_bps
+    from rollsim.channel.periodic_rlnc import rlnc_periodic_figures, rlnc_replay_goodput_bps
 
     success = np.asarray(success, dtype=bool)
     payload = link.payload_bits
     ge_trace = None
     if ge is not None:
         ge_trace = simulate_ge_trace(ge.p, ge.q, ge.p_e, GE_TRACE_LENGTHS * success.size, np.random.default_rng(seed))
-    rows = []
+    def rows_for(strategy: str, r: int) -> list[dict]:
+        replay = replay_goodput_bps(success, r, n_packets, payload, sdu_duration_s, strategy=strategy,
+                                    max_starts=REPLAY_STARTS)
+        out = []
+        for model, (q, weights) in profiles.items():
+            try:
+                predicted = goodput_bps(q, weights, r, n_packets, strategy, payload, sdu_duration_s)["mean_goodput_bps"]
+            except ExactSumTooCostly as exc:
+                # A channel that completes a message once in many thousand emissions: no figure, and why.
+                out.append(_row(model, strategy, r, None, replay, f"not computed: {exc}"))
+                continue
+            out.append(_row(model, strategy, r, predicted, replay, "exact"))
+        if ge_trace is not None:
+            simulated = replay_goodput_bps(ge_trace, r, n_packets, payload, sdu_duration_s, strategy=strategy,
+                                           max_starts=GE_STARTS)["goodput_bps"]
+            out.append(_row("ge", strategy, r, simulated, replay, "simulated"))
+        return out
+
+    def rlnc_rows() -> list[dict]:
+        measured = rlnc_replay_goodput_bps(success, n_packets, payload, sdu_duration_s, max_starts=REPLAY_STARTS)
+        batches = min(REPLAY_BATCHES, int(success.size // max(1.0, measured["mean_length"] or 1.0)))
+        replay = {"goodput_bps": measured["goodput_bps"],
+                  "ci95": batch_means_interval(measured["per_start"], batches) if measured["goodput_bps"] is not None
+                  else None}
+        out = []
+        for model, (q, weights) in profiles.items():
+            try:
+                predicted = rlnc_periodic_figures(q, weights, n_packets, payload, sdu_duration_s)["mean_goodput_bps"]
+            except ExactSumTooCostly as exc:
+                out.append(_row(model, "rlnc", 1, None, replay, f"not computed: {exc}"))
+                continue
+            out.append(_row(model, "rlnc", 1, predicted, replay, "exact"))
+        if ge_trace is not None:
+            simulated = rlnc_replay_goodput_bps(ge_trace, n_packets, payload, sdu_duration_s,
+                                                max_starts=GE_STARTS)["goodput_bps"]
+            out.append(_row("ge", "rlnc", 1, simulated, replay, "simulated"))
+        return out
+
+    rows: list[dict] = []
     for strategy in STRATEGIES:
+        # RS emits the sequence of packets over and over whatever r is (r counts the
+        # sequences of a round, and a broadcast repeats rounds): one r stands for all.
+        shared = rows_for(strategy, r_values[0]) if strategy == "rs" and r_values else None
         for r in r_values:
-            replay = replay_goodput_bps(success, r, n_packets, payload, sdu_duration_s, strategy=strategy,
-                                        max_starts=success.size)
-            for model, (q, weights) in profiles.items():
-                try:
-                    predicted = goodput_bps(q, weights, r, n_packets, strategy, payload, sdu_duration_s)["mean_goodput_bps"]
-                except ExactSumTooCostly as exc:
-                    # A channel that completes a message once in many thousand emissions: no figure, and why.
-                    rows.append(_row(model, strategy, r, None, replay, f"not computed: {exc}"))
-                    continue
-                rows.append(_row(model, strategy, r, predicted, replay, "exact"))
-            if ge_trace is not None:
-                simulated = replay_goodput_bps(ge_trace, r, n_packets, payload, sdu_duration_s, strategy=strategy,
-                                               max_starts=GE_STARTS)["goodput_bps"]
-                rows.append(_row("ge", strategy, r, simulated, replay, "simulated"))
+            rows += [{**row, "r": r} for row in shared] if shared is not None else rows_for(strategy, r)
+    if rlnc:
+        rows += rlnc_rows()
     return rows
 
 

@@ -37,6 +37,7 @@ from rollsim.channel.eventsim import (
 )
 from rollsim.channel.markov import GeChannel
 from rollsim.channel.periodic import PeriodicChannel, PeriodicFigures, exact_figures, goodput_bps
+from rollsim.channel.periodic_rlnc import rlnc_periodic_figures, rlnc_replay_goodput_bps
 from rollsim.channel.position import SlotProfiles, slot_profiles
 from rollsim.channel.scene_channel import (
     CHANNEL_KINDS,
@@ -74,6 +75,8 @@ __all__ = [
     "channel_from_scene",
     "exact_figures",
     "goodput_bps",
+    "rlnc_periodic_figures",
+    "rlnc_replay_goodput_bps",
     "run_seed_sequence",
     "simulate_broadcast",
     "simulate_scene",
