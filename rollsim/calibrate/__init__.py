@@ -88,9 +88,9 @@ def goodput_consistency(table: list[dict], model: str = "mmbp", strategy: str = 
     """One model's rows of :func:`rollsim.calibrate.goodput.goodput_table` for one strategy.
 
     Rows: ``r``, ``predicted_bps``, ``replayed_bps`` (None for an empty
-    trace), ``replayed_ci95``, ``relative_difference`` (predicted / replayed − 1), ``agrees``.
+    trace), ``interval``, ``relative_difference`` (predicted / replayed − 1), ``agrees``.
     """
-    keys = ("r", "predicted_bps", "replayed_bps", "replayed_ci95", "relative_difference", "agrees")
+    keys = ("r", "predicted_bps", "replayed_bps", "interval", "relative_difference", "agrees")
     return [{k: row[k] for k in keys} for row in table if row["model"] == model and row["strategy"] == strategy]
 
 
@@ -317,7 +317,7 @@ def goodput_text(table: list[dict], number) -> str:
     rows = []
     for strategy, r in dict.fromkeys((row["strategy"], row["r"]) for row in table):
         first = keyed[(strategy, r, models[0])]
-        low_high = first["replayed_ci95"]
+        low_high = first["interval"]
         cells = []
         for model in models:
             row = keyed[(strategy, r, model)]

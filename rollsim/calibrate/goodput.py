@@ -69,7 +69,7 @@ def _row(model, strategy, r, predicted, replay, method) -> dict:
     replayed = replay["goodput_bps"]
     difference = predicted / replayed - 1.0 if replayed and predicted is not None else None
     return {"model": model, "strategy": strategy, "r": r, "predicted_bps": predicted, "method": method,
-            "replayed_bps": replayed, "replayed_ci95": None if replay["ci95"] is None else list(replay["ci95"]),
+            "replayed_bps": replayed, "interval": None if replay["ci95"] is None else list(replay["ci95"]),
             "relative_difference": difference,
             "agrees": None if predicted is None else agrees(predicted, replayed, replay["ci95"])}
 
@@ -105,7 +105,8 @@ def goodput_table(success, link, sdu_duration_s: float, n_packets: int, profiles
     list of dict
         ``model``, ``strategy``, ``r``, ``predicted_bps`` (None when the
         exact sum is too costly), ``method`` (``exact``, ``simulated``, or
-        ``not computed: <why>``), ``replayed_bps``, ``replayed_ci95``,
+        ``not computed: <why>``), ``replayed_bps``, ``interval`` (the
+        replay's 95 % interval; None for a trace shorter than two replays),
         ``relative_difference`` (predicted / replayed − 1, None without a
         replay) and ``agrees``.
     """

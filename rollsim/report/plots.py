@@ -174,7 +174,7 @@ def plot_goodput(calibration: dict, path: Path) -> Path:
         replayed = {g["r"]: g for g in rows}
         r = np.array(sorted(replayed))
         centre = np.array([replayed[k]["replayed_bps"] or 0.0 for k in r])
-        spans = [replayed[k]["replayed_ci95"] or [centre[i], centre[i]] for i, k in enumerate(r)]
+        spans = [replayed[k]["interval"] or [centre[i], centre[i]] for i, k in enumerate(r)]
         error = np.abs(np.array(spans).T - centre)
         ax.errorbar(r, centre, yerr=error, fmt="x", color=MODEL_COLOURS["empirical"], capsize=3, markersize=8,
                     label="trace replayed (95 %)")
