@@ -2,7 +2,11 @@
 
 Each frame's footprint is computed with every row seeing the LED where it
 is at that row's mid-exposure (:mod:`rollsim.optics.motion`), and goes to
-``state.footprint`` and ``state.led_rows``.
+``state.footprint`` and ``state.led_rows``. Where ``led_profile`` or
+``glare`` shape the LED's light, that light is an image of the LED too: a
+translation moves it unchanged, so the light computed once at the rest
+position is shifted per row (:func:`rollsim.optics.motion.moved_light`)
+into ``state.led_light``, and the LED's rows move with it.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from pydantic import Field
 
 from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.optics.footprint import led_rows_from_coverage
-from rollsim.optics.motion import motion_footprint, path_from_params
+from rollsim.optics.motion import motion_footprint, moved_light, path_from_params
 from rollsim.optics.psf import blur_canvas, total_radius
 
 if TYPE_CHECKING:
@@ -52,6 +56,7 @@ def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     height, width = setup.shape
     cx, cy = setup.led_centre_px
     rows = np.arange(-ry, height + ry)
+    light = setup.led_light  # the rest position's light, where led_profile or glare shape it
 
     def run(state: FrameState) -> None:
         mid_exposure_s = state.start_s + (rows - rows % timing.binning_rows) * timing.row_time_s \
@@ -60,15 +65,28 @@ def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
                                   (height + 2 * ry, width + 2 * rx), mid_exposure_s, scene.render.footprint_edge)
         fp = blur_canvas(canvas, kernels, setup.shape) if kernels else canvas
         state.footprint = fp
-        state.led_rows = led_rows_from_coverage(fp.row_coverage(timing.height_px)) or ()
+        if light is None:
+            state.led_rows = led_rows_from_coverage(fp.row_coverage(timing.height_px)) or ()
+            return
+        offsets = path.offset_px(mid_exposure_s[ry:ry + height])
+        state.led_light = moved_light(light, offsets, setup.shape)
+        state.led_rows = moved_rows(setup.led_rows, offsets[:, 1])
 
     return run
 
 
-# The glare halo is convolved once per scene (a tenth of a second); a
-# moving LED would need it again for every frame, and the face's profile
-# with it.
-_ONCE_PER_SCENE = "cannot be combined with {} yet (its light is computed once per scene)"
+def moved_rows(rest_rows, dy_px: np.ndarray):
+    """The LED's rows (first, last) of a frame whose row y shows the rest position's row y − dy_y:
+    the rows whose source lies in the rest rows (``()`` when none does). A source past the frame's
+    edge counts as the edge row, as :func:`rollsim.optics.motion.moved_light` continues the light."""
+    if not rest_rows:
+        return ()
+    first, last = rest_rows
+    # A row shows mostly its nearest source row (bilinear weights).
+    source = np.clip(np.rint(np.arange(dy_px.size) - dy_px), 0, dy_px.size - 1)
+    inside = np.flatnonzero((source >= first) & (source <= last))
+    return (int(inside[0]), int(inside[-1])) if inside.size else ()
+
 
 EFFECT = Effect(
     name="motion",
@@ -76,7 +94,6 @@ EFFECT = Effect(
     slot="geometry",
     build_stage=build_stage,
     variant="mode",
-    excludes=(("led_profile", _ONCE_PER_SCENE.format("led_profile")), ("glare", _ONCE_PER_SCENE.format("glare"))),
-    reads=("state.start_s", "setup.lens_kernels", "setup.led_size_px"),
-    writes=("state.footprint", "state.led_rows"),
+    reads=("state.start_s", "setup.lens_kernels", "setup.led_size_px", "setup.led_light", "setup.led_rows"),
+    writes=("state.footprint", "state.led_light", "state.led_rows"),
 )

@@ -29,8 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rollsim.optics.footprint import Footprint, footprint_per_row
 from rollsim.numerics.frame_sequence import FrameSequence
+from rollsim.numerics.jit import kernel
+from rollsim.optics.footprint import Footprint, footprint_per_row
 
 STREAM = "motion"
 
@@ -128,3 +129,107 @@ def motion_footprint(path, centre_px, size_px: float, shape: str, frame_shape: t
     """
     offset = path.offset_px(row_times_s)
     return footprint_per_row(centre_px[0] + offset[:, 0], centre_px[1] + offset[:, 1], size_px, shape, frame_shape, edge)
+
+
+def moved_light(light: Footprint, row_offsets_px: np.ndarray, frame_shape: tuple[int, int]) -> Footprint:
+    """A static light moved as each row sees it: row y shows the light at (x − dx_y, y − dy_y).
+
+    The glare halo and the LED face's profile are images of the LED: a
+    translation of the LED translates them, so a moving LED's light is the
+    rest-position light shifted per row (the rolling-shutter skew), sampled
+    with bilinear interpolation. The shift is exact for whole-pixel offsets;
+    a sub-pixel one smooths the light over a pixel, as bilinear sampling
+    does (each axis's variance grows by f(1 − f), f the offset's fraction),
+    and keeps its sum and moves its centroid by the offset exactly wherever
+    the light stays inside the frame. Outside the light's box it is 0, but
+    past the frame's edge the rest light is not known: where its box
+    reaches an edge of the frame (an LED that fills the frame, a halo), the
+    edge's values continue it, so a shift does not draw a dark band there.
+
+    Parameters
+    ----------
+    light : Footprint
+        The light at rest (its box and values).
+    row_offsets_px : ndarray, shape (height, 2)
+        Offset (dx, dy) of the LED, in pixels, at the time each frame row sees.
+    frame_shape : (int, int)
+        (height, width) of the frame.
+
+    Returns
+    -------
+    Footprint
+        The moved light on the rows and columns it can reach.
+    """
+    height, width = frame_shape
+    values = np.asarray(light.coverage, dtype=np.float64)
+    if values.size == 0:
+        return light
+    r0, c0 = light.rows.start, light.cols.start
+    dx, dy = row_offsets_px[:, 0], row_offsets_px[:, 1]
+    # The output box: the light's box widened by the largest shift, within the frame.
+    rows = slice(max(0, int(np.floor(r0 + dy.min())) - 1), min(height, int(np.ceil(light.rows.stop + dy.max())) + 1))
+    cols = slice(max(0, int(np.floor(c0 + dx.min())) - 1), min(width, int(np.ceil(light.cols.stop + dx.max())) + 1))
+    if rows.stop <= rows.start or cols.stop <= cols.start:
+        return Footprint(slice(0, 0), slice(0, 0), np.zeros((0, 0)))
+    y = np.arange(rows.start, rows.stop)
+    # One row and column pad the light on each side: an index clipped into the
+    # padding reads 0, the light outside its box, or the edge's values where
+    # the box reaches the frame's edge (the light goes on beyond it, unknown).
+    padded = np.pad(values, 1)
+    if light.rows.start == 0:
+        padded[0] = padded[1]
+    if light.rows.stop == height:
+        padded[-1] = padded[-2]
+    if light.cols.start == 0:
+        padded[:, 0] = padded[:, 1]
+    if light.cols.stop == width:
+        padded[:, -1] = padded[:, -2]
+    # Output row y reads the light's rows i0, i0 + 1 around y − dy_y with weights 1 − a, a, and
+    # column x its columns around x − dx_y: x − c0 + 1 + k and the next, with weights 1 − b, b.
+    source = y - dy[y] - r0 + 1.0
+    i0 = np.floor(source).astype(np.int64)
+    a = source - i0
+    shift = -dx[y]
+    k = np.floor(shift).astype(np.int64)
+    b = shift - k
+    first_col = cols.start - c0 + 1
+    out = np.empty((y.size, cols.stop - cols.start))
+    compiled = _bilinear_rows.compiled
+    if compiled is not None:
+        compiled(padded, i0, a, k, b, first_col, out)
+    else:
+        _bilinear_rows_numpy(padded, i0, a, k, b, first_col, out)
+    return Footprint(rows, cols, out)
+
+
+def _bilinear_rows_numpy(padded, i0, a, k, b, first_col, out) -> None:
+    """:data:`_bilinear_rows` in numpy: the same operations in the same order (the same bits)."""
+    last_row, last_col = padded.shape[0] - 1, padded.shape[1] - 1
+    upper, lower = np.clip(i0, 0, last_row), np.clip(i0 + 1, 0, last_row)
+    weight = a[:, None]
+    vertical = (1.0 - weight) * padded[upper] + weight * padded[lower]
+    index = first_col + np.arange(out.shape[1])[None, :] + k[:, None]
+    left = np.take_along_axis(vertical, np.clip(index, 0, last_col), axis=1)
+    right = np.take_along_axis(vertical, np.clip(index + 1, 0, last_col), axis=1)
+    across = b[:, None]
+    out[:] = (1.0 - across) * left + across * right
+
+
+@kernel
+def _bilinear_rows(padded, i0, a, k, b, first_col, out):  # pragma: no cover - compiled by numba
+    last_row = padded.shape[0] - 1
+    last_col = padded.shape[1] - 1
+    for r in range(out.shape[0]):
+        upper = min(max(i0[r], 0), last_row)
+        lower = min(max(i0[r] + 1, 0), last_row)
+        down = a[r]
+        up = 1.0 - down
+        across = b[r]
+        stay = 1.0 - across
+        for c in range(out.shape[1]):
+            j = first_col + c + k[r]
+            j0 = min(max(j, 0), last_col)
+            j1 = min(max(j + 1, 0), last_col)
+            left = up * padded[upper, j0] + down * padded[lower, j0]
+            right = up * padded[upper, j1] + down * padded[lower, j1]
+            out[r, c] = stay * left + across * right

@@ -75,7 +75,10 @@ def led_signal_stage(setup: SceneSetup) -> Stage:
         return fp.coverage * on_box(rate, fp) if np.ndim(rate) else fp.coverage
 
     def run(state):
-        fp = static if state.footprint is None else state.footprint
+        if state.led_light is not None:
+            fp = state.led_light
+        else:
+            fp = static if state.footprint is None else state.footprint
         if fp.coverage.size:
             # As parts (rollsim.sensor.means): the frame is written only if a
             # stage reads it; the compiled chain reads the parts.

@@ -56,6 +56,10 @@ class FrameState:
     footprint : Footprint or None
         This frame's LED coverage when it differs from the setup's (the
         ``motion`` effect); None means ``setup.footprint``.
+    led_light : Footprint or None
+        This frame's LED light when the light differs from the coverage
+        (``led_profile`` or ``glare``) and moves (``motion``); None means the
+        setup's light, or this frame's ``footprint`` where only it moves.
     led_rows : (int, int), () or None
         This frame's LED rows for the truth; ``()`` when no row is an LED
         row; None means ``setup.led_rows``.
@@ -73,6 +77,7 @@ class FrameState:
     dn: np.ndarray = field(default_factory=_not_yet)
     image: np.ndarray = field(default_factory=_not_yet)
     footprint: Footprint | None = None
+    led_light: Footprint | None = None
     led_rows: tuple | None = None
     ambient_row_factor: np.ndarray | None = None
 

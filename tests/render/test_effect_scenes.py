@@ -125,8 +125,7 @@ def test_frames_with_every_optical_effect_are_byte_identical(tmp_path):
 
 
 def test_every_effect_at_once_is_deterministic_and_decodes(tmp_path):
-    """Every effect on one scene (but led_profile and glare, which motion does not
-    take yet, and tone_curve: under this defocus a chip's rows never reach a
+    """Every effect on one scene (but tone_curve: under this defocus a chip's rows never reach a
     plateau, and the decoder's mid-level threshold, taken after an sRGB curve,
     then misreads 16 of 27 PHY-SDUs; the decoder's envelope work owns that):
     the same bytes for 1 and 2 workers, and a moving, blurred, flickering,
@@ -137,9 +136,9 @@ def test_every_effect_at_once_is_deterministic_and_decodes(tmp_path):
                  "effects.frame_jitter.std_us=30", "effects.motion.amplitude_y_px=6", "effects.flicker.depth=0.3",
                  "effects.blooming=null", "effects.row_noise=null", "effects.column_fpn=null",
                  "effects.isp_smoothing=null", "effects.sharpening=null",
-                 "effects.jpeg=null"]
+                 "effects.jpeg=null", "effects.glare=null", "effects.led_profile.core_sigma_mm=6"]
     scene = load_scene("effect-bayer", overrides)
-    assert set(scene.effects.enabled()) == set(EFFECT_NAMES) - {"tone_curve", "led_profile", "glare"}
+    assert set(scene.effects.enabled()) == set(EFFECT_NAMES) - {"tone_curve"}
     images, truth = render_frames(scene, 8)
     tx = transmitter_from_scene(scene)
     frames = decoder.decode_frames(images, tx.phy, scene.link.clock_hz, scene.camera.row_time_s)

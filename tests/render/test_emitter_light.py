@@ -341,9 +341,10 @@ def test_led_rows_shrink_with_distance_under_glare():
 
 
 @pytest.mark.parametrize("other", ["glare", "led_profile"])
-def test_motion_with_light_computed_once_per_scene_is_refused_at_load(other):
-    with pytest.raises(SceneError, match=f"effects.motion: cannot be combined with {other} yet"):
-        load_scene("effect-motion", [f"effects.{other}={{}}"])
+def test_motion_takes_the_light_computed_once_per_scene(other):
+    """The light is moved per frame (tests/render/test_motion_light.py): the pair loads."""
+    scene = load_scene("effect-motion", [f"effects.{other}={{}}"])
+    assert {"motion", other} <= set(scene.effects.enabled())
 
 
 # ------------------------------------------------------------ readable rows
