@@ -28,11 +28,16 @@ if TYPE_CHECKING:
 
 class Motion(EffectParams):
     """Hand shake: the LED's image position moves, per axis, as a random walk
-    reflected at ±``amplitude_*_px`` (steps of std ``step_*_px`` per frame)
-    or as a sinusoid of amplitude ``amplitude_*_px`` at ``frequency_hz``.
-    See :mod:`rollsim.optics.motion`."""
+    reflected at ±``amplitude_*_px`` (steps of std ``step_*_px`` per frame),
+    as a sinusoid of amplitude ``amplitude_*_px`` at ``frequency_hz``, or as
+    a camera held in the hand (``handheld``): tremor of ``tremor_deg`` (rms
+    angle, 8–12 Hz) on drift of ``drift_deg`` (rms, 0.1–1 Hz), in the
+    camera's pan and tilt (pixels: the angle × focal length / pixel pitch)
+    and its roll (``roll_tremor_deg``, ``roll_drift_deg``) about the frame's
+    centre. The handheld amplitudes' defaults are assumed (see
+    docs/scenes.md). See :mod:`rollsim.optics.motion`."""
 
-    mode: Literal["random_walk", "sinusoid"] = "random_walk"
+    mode: Literal["random_walk", "sinusoid", "handheld"] = "random_walk"
     amplitude_x_px: float = Field(8.0, ge=0, le=1e4)
     amplitude_y_px: float = Field(8.0, ge=0, le=1e4)
     step_x_px: float = Field(2.0, ge=0, le=1e4)
@@ -40,11 +45,19 @@ class Motion(EffectParams):
     frequency_hz: float = Field(10.0, gt=0, le=1e4)
     phase_x_deg: float = Field(0.0, ge=-360, le=360)
     phase_y_deg: float = Field(90.0, ge=-360, le=360)
+    tremor_deg: float = Field(0.05, ge=0, le=10)
+    drift_deg: float = Field(0.3, ge=0, le=30)
+    roll_tremor_deg: float = Field(0.05, ge=0, le=10)
+    roll_drift_deg: float = Field(0.3, ge=0, le=30)
 
 
 def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     scene, timing = setup.scene, setup.timing
-    path = path_from_params(params, scene.seed, timing.frame_period_s)
+    cam = scene.camera
+    centre_x, centre_y = setup.led_centre_px
+    lever = (centre_x - 0.5 * cam.width_px, centre_y - 0.5 * cam.height_px)
+    path = path_from_params(params, scene.seed, timing.frame_period_s,
+                            px_per_rad=cam.focal_length_mm * 1e-3 / (cam.pixel_pitch_um * 1e-6), lever_px=lever)
     # With a lens PSF the frame's footprint is computed on a canvas extended
     # by the PSF's reach (rows there see the LED where it is at their time)
     # and blurred as the static footprint is once per scene. The blur mixes

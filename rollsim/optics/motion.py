@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rollsim.numerics.frame_sequence import FrameSequence
+from rollsim.numerics.seeds import rng as named_rng
 from rollsim.numerics.jit import kernel
 from rollsim.optics.footprint import Footprint, footprint_per_row
 
@@ -104,8 +105,88 @@ class ReflectedWalkPath:
         return fold(free, self.bound_px)
 
 
-def path_from_params(params, seed: int, frame_period_s: float):
-    """The path a :class:`rollsim.effects.motion.Motion` describes."""
+# Components of the handheld path's spectral synthesis, per axis.
+TREMOR_COMPONENTS = 48
+DRIFT_COMPONENTS = 24
+
+
+def _band_sinusoids(rng: np.random.Generator, count: int, band_hz: tuple, rms: float, slope: float):
+    """Frequencies, amplitudes and phases of ``count`` sinusoids whose sum has variance ``rms``²:
+    one frequency log-uniform in each of ``count`` equal log-steps of ``band_hz`` (stratified, so
+    that no two lie so close that they beat over seconds), amplitudes ∝ f^(−``slope``)."""
+    edges = np.log(np.geomspace(band_hz[0], band_hz[1], count + 1))
+    frequency = np.exp(rng.uniform(edges[:-1], edges[1:]))
+    amplitude = frequency ** -slope
+    # The sum of sinusoids a_k sin(...) has variance Σ a_k² / 2.
+    amplitude *= rms / np.sqrt(0.5 * np.sum(amplitude**2))
+    return frequency, amplitude, rng.uniform(0.0, 2.0 * np.pi, count)
+
+
+class HandheldPath:
+    """A camera held in the hand: physiological tremor on slow drift, in translation and roll.
+
+    Each of x, y (px) and roll (rad, about the image centre) is a sum of
+    sinusoids with random frequencies and phases drawn once per scene from
+    its seed (spectral synthesis: a Gaussian process's sample, continuous
+    in time, the same for any order of frames):
+
+    * tremor: :data:`TREMOR_COMPONENTS` frequencies in ``tremor_band_hz``
+      (physiological tremor lies at 8–12 Hz: R. J. Elble and W. C. Koller,
+      *Tremor*, Johns Hopkins University Press, 1990), flat in amplitude;
+    * drift: :data:`DRIFT_COMPONENTS` frequencies in ``drift_band_hz``,
+      amplitude ∝ 1/f (power ∝ 1/f²: a wandering hold).
+
+    Roll turns the LED's image about the frame's centre: with the LED's
+    rest position r from the centre, a small roll θ moves it by θ·(−r_y, r_x).
+
+    Parameters
+    ----------
+    seed : int
+        Scene seed.
+    tremor_rms_px, drift_rms_px : float
+        Standard deviation of each translation component per axis, px.
+    roll_tremor_rms_rad, roll_drift_rms_rad : float
+        Standard deviation of the roll's components, rad.
+    tremor_band_hz, drift_band_hz : (float, float)
+    lever_px : (float, float)
+        The LED's rest position from the frame's centre (x, y), px.
+    """
+
+    def __init__(self, seed: int, tremor_rms_px: float, drift_rms_px: float, roll_tremor_rms_rad: float,
+                 roll_drift_rms_rad: float, tremor_band_hz=(8.0, 12.0), drift_band_hz=(0.1, 1.0), lever_px=(0.0, 0.0)):
+        rng = named_rng(seed, STREAM, 1)
+        self.components = []  # per axis (x, y, roll): (frequency, amplitude, phase) arrays
+        for tremor, drift in ((tremor_rms_px, drift_rms_px), (tremor_rms_px, drift_rms_px),
+                              (roll_tremor_rms_rad, roll_drift_rms_rad)):
+            parts = [_band_sinusoids(rng, TREMOR_COMPONENTS, tremor_band_hz, tremor, 0.0),
+                     _band_sinusoids(rng, DRIFT_COMPONENTS, drift_band_hz, drift, 1.0)]
+            self.components.append(tuple(np.concatenate(x) for x in zip(*parts)))
+        self.lever_px = np.asarray(lever_px, dtype=np.float64)
+
+    def axis(self, index: int, t_s) -> np.ndarray:
+        """Component ``index`` (0: x px, 1: y px, 2: roll rad) at times ``t_s``."""
+        frequency, amplitude, phase = self.components[index]
+        t = np.asarray(t_s, dtype=np.float64)
+        # Cycles modulo 1 before the sine: exact phases at long times.
+        cycles = np.mod(t[:, None] * frequency[None, :], 1.0)
+        return np.sin(2.0 * np.pi * cycles + phase[None, :]) @ amplitude
+
+    def offset_px(self, t_s) -> np.ndarray:
+        """Offsets (dx, dy) in pixels at times ``t_s``, shape (n, 2): translation plus roll about the centre."""
+        roll = self.axis(2, t_s)
+        dx = self.axis(0, t_s) - roll * self.lever_px[1]
+        dy = self.axis(1, t_s) + roll * self.lever_px[0]
+        return np.stack([dx, dy], axis=1)
+
+
+def path_from_params(params, seed: int, frame_period_s: float, px_per_rad: float = 0.0, lever_px=(0.0, 0.0)):
+    """The path a :class:`rollsim.effects.motion.Motion` describes (``px_per_rad``: the image's
+    pixels per radian of the camera's turn, focal length over pixel pitch; ``lever_px``: the LED's
+    rest position from the frame's centre; both for ``handheld``)."""
+    if params.mode == "handheld":
+        return HandheldPath(seed, np.radians(params.tremor_deg) * px_per_rad, np.radians(params.drift_deg) * px_per_rad,
+                            np.radians(params.roll_tremor_deg), np.radians(params.roll_drift_deg),
+                            lever_px=lever_px)
     amplitude = (params.amplitude_x_px, params.amplitude_y_px)
     if params.mode == "sinusoid":
         return SinusoidPath(amplitude, params.frequency_hz, (np.radians(params.phase_x_deg), np.radians(params.phase_y_deg)))
