@@ -623,11 +623,12 @@ def cmd_simulate(args) -> int:
     try:
         check_runs_first(scene, args.runs, args.workers, args.max_emissions, camcomsim_file)
         setup = broadcast_from_scene(scene, kind)
+        label = args.channel
         if calibration is not None:
-            setup = _fitted_setup(setup, calibration, args)
+            setup, label = _fitted_setup(setup, calibration, args)
         for warning in setup.warnings:
             _simulation_warning(warning)
-        with tqdm(total=args.runs, unit="run", desc=f"simulate {args.channel}", disable=args.quiet or None) as bar:
+        with tqdm(total=args.runs, unit="run", desc=f"simulate {label}", disable=args.quiet or None) as bar:
             result = simulate_broadcast(
                 setup.channel, setup.schedule, header_bits=setup.header_bits, payload_bits=setup.payload_bits,
                 runs=args.runs, seed=scene.seed, max_emissions=args.max_emissions, workers=args.workers,
@@ -649,20 +650,19 @@ def cmd_simulate(args) -> int:
     else:
         text = _json_text({"summary": summary})
     _write_outputs(args, {args.json: text})
-    print(_format_simulation(summary, args.channel))
+    print(_format_simulation(summary, label))
     return EXIT_OK
 
 
 def _fitted_setup(setup, calibration: dict, args):
-    """The scene's broadcast over the channel a calibration fitted (``--channel fitted``)."""
+    """The scene's broadcast over the channel a calibration fitted (``--channel fitted``), and its label."""
     from dataclasses import replace
 
     from rollsim.calibrate.fitted_channel import channel_from_calibration
 
     channel, name = channel_from_calibration(calibration, setup.channel.emission_duration_s, args.model,
                                              source=str(args.calibration))
-    args.channel = f"fitted {name}"
-    return replace(setup, channel=channel)
+    return replace(setup, channel=channel), f"fitted {name}"
 
 
 def _format_simulation(summary: dict, channel: str) -> str:

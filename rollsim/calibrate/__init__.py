@@ -44,6 +44,18 @@ if TYPE_CHECKING:
 RUN_LENGTH_BINS = 12
 
 
+def _aligned(trace: Trace) -> bool:
+    return (trace.scene is not None and trace.start_s is not None and trace.frame_starts_s is not None
+            and trace.frame_starts_s.size > 0)
+
+
+def _frame_clock(trace: Trace) -> tuple[float, float]:
+    from rollsim.channel.scene_channel import sdu_duration_from_scene
+
+    assert trace.scene is not None
+    return trace.scene.camera.frame_period_s, sdu_duration_from_scene(trace.scene)
+
+
 def fit_mmbp(trace: Trace) -> MmbpFit:
     """The MMBP fit of a trace: aligned to its frames when it carries them and
     its scene, else by the best cycle.
@@ -53,13 +65,8 @@ def fit_mmbp(trace: Trace) -> MmbpFit:
     ValueError
         For a trace the model cannot be fitted to (empty, no success).
     """
-    scene = trace.scene
-    if scene is not None and trace.start_s is not None and trace.frame_starts_s is not None and trace.frame_starts_s.size:
-        from rollsim.channel.scene_channel import sdu_duration_from_scene
-
-        return fit_mmbp_aligned(
-            trace.success, trace.start_s, trace.frame_starts_s, scene.camera.frame_period_s, sdu_duration_from_scene(scene)
-        )
+    if _aligned(trace):
+        return fit_mmbp_aligned(trace.success, trace.start_s, trace.frame_starts_s, *_frame_clock(trace))
     return fit_mmbp_cycle(trace.success)
 
 
@@ -92,18 +99,6 @@ def goodput_consistency(table: list[dict], model: str = "mmbp", strategy: str = 
     """
     keys = ("r", "predicted_bps", "replayed_bps", "interval", "relative_difference", "agrees")
     return [{k: row[k] for k in keys} for row in table if row["model"] == model and row["strategy"] == strategy]
-
-
-def _aligned(trace: Trace) -> bool:
-    return (trace.scene is not None and trace.start_s is not None and trace.frame_starts_s is not None
-            and trace.frame_starts_s.size > 0)
-
-
-def _frame_clock(trace: Trace) -> tuple[float, float]:
-    from rollsim.channel.scene_channel import sdu_duration_from_scene
-
-    assert trace.scene is not None
-    return trace.scene.camera.frame_period_s, sdu_duration_from_scene(trace.scene)
 
 
 def fit_position_model(trace: Trace):

@@ -112,7 +112,7 @@ def goodput_table(success, link, sdu_duration_s: float, n_packets: int, profiles
     """
     from rollsim.calibrate.compare import simulate_ge_trace
     from rollsim.channel.analytic import ExactSumTooCostly
-    from rollsim.calibrate.replay import REPLAY_BATCHES, batch_means_interval
+    from rollsim.calibrate.replay import replay_interval
     from rollsim.channel.periodic import goodput_bps
     from rollsim.channel.periodic_rlnc import rlnc_periodic_figures, rlnc_replay_goodput_bps
 
@@ -141,10 +141,9 @@ def goodput_table(success, link, sdu_duration_s: float, n_packets: int, profiles
 
     def rlnc_rows() -> list[dict]:
         measured = rlnc_replay_goodput_bps(success, n_packets, payload, sdu_duration_s, max_starts=REPLAY_STARTS)
-        batches = min(REPLAY_BATCHES, int(success.size // max(1.0, measured["mean_length"] or 1.0)))
         replay = {"goodput_bps": measured["goodput_bps"],
-                  "ci95": batch_means_interval(measured["per_start"], batches) if measured["goodput_bps"] is not None
-                  else None}
+                  "ci95": replay_interval(measured["per_start"], success.size, measured["mean_length"] or 1.0)
+                  if measured["goodput_bps"] is not None else None}
         out = []
         for model, (q, weights) in profiles.items():
             try:

@@ -97,9 +97,8 @@ def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_d
             continue
         goodputs.append(payload_bits * n_packets / ((done + 1) * sdu_duration_s))
         lengths.append(done + 1)
-    # A batch must outlast a replay, or neighbouring batches share outcomes.
-    batches = min(REPLAY_BATCHES, int(horizon // max(1.0, float(np.mean(lengths)))))
-    return {"goodput_bps": float(np.mean(goodputs)), "ci95": batch_means_interval(np.array(goodputs), batches),
+    return {"goodput_bps": float(np.mean(goodputs)),
+            "ci95": replay_interval(np.array(goodputs), horizon, float(np.mean(lengths))),
             "replays": len(goodputs), "capped": capped, "trace_rounds": rounds}
 
 
@@ -109,6 +108,14 @@ def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_d
 # so that replays that share outcomes fall mostly in one batch. A trace
 # shorter than two replays has no interval.
 REPLAY_BATCHES = 10
+
+
+def replay_interval(per_start: np.ndarray, horizon: int, mean_length: float) -> tuple[float, float] | None:
+    """95 % interval of a replayed goodput from its per-start values (in start order), by batch
+    means: :data:`REPLAY_BATCHES` at most, each at least a replay's mean length (``mean_length``
+    emissions, of a trace of ``horizon``), since a batch must outlast a replay or neighbouring
+    batches share outcomes; None for a trace shorter than two replays."""
+    return batch_means_interval(per_start, min(REPLAY_BATCHES, int(horizon // max(1.0, mean_length))))
 
 
 def batch_means_interval(values: np.ndarray, batches: int = REPLAY_BATCHES) -> tuple[float, float] | None:

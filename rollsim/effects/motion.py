@@ -18,7 +18,7 @@ from pydantic import Field
 
 from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.optics.footprint import led_rows_from_coverage
-from rollsim.optics.motion import motion_footprint, moved_light, path_from_params
+from rollsim.optics.motion import footprint_at_offsets, moved_light, path_from_params
 from rollsim.optics.psf import blur_canvas, total_radius
 
 if TYPE_CHECKING:
@@ -74,16 +74,18 @@ def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     def run(state: FrameState) -> None:
         mid_exposure_s = state.start_s + (rows - rows % timing.binning_rows) * timing.row_time_s \
             + 0.5 * timing.exposure_s
-        canvas = motion_footprint(path, (cx + rx, cy + ry), setup.led_size_px, scene.led.shape,
-                                  (height + 2 * ry, width + 2 * rx), mid_exposure_s, scene.render.footprint_edge)
+        # One evaluation of the path per frame serves the footprint and the moved light.
+        offsets = path.offset_px(mid_exposure_s)
+        canvas = footprint_at_offsets(offsets, (cx + rx, cy + ry), setup.led_size_px, scene.led.shape,
+                                      (height + 2 * ry, width + 2 * rx), scene.render.footprint_edge)
         fp = blur_canvas(canvas, kernels, setup.shape) if kernels else canvas
         state.footprint = fp
         if light is None:
             state.led_rows = led_rows_from_coverage(fp.row_coverage(timing.height_px)) or ()
             return
-        offsets = path.offset_px(mid_exposure_s[ry:ry + height])
-        state.led_light = moved_light(light, offsets, setup.shape)
-        state.led_rows = moved_rows(setup.led_rows, offsets[:, 1])
+        frame_offsets = offsets[ry:ry + height]
+        state.led_light = moved_light(light, frame_offsets, setup.shape)
+        state.led_rows = moved_rows(setup.led_rows, frame_offsets[:, 1])
 
     return run
 

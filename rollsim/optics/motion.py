@@ -208,8 +208,14 @@ def motion_footprint(path, centre_px, size_px: float, shape: str, frame_shape: t
     row_times_s : ndarray, shape (height,)
         The time each frame row sees, in seconds (mid-exposure).
     """
-    offset = path.offset_px(row_times_s)
-    return footprint_per_row(centre_px[0] + offset[:, 0], centre_px[1] + offset[:, 1], size_px, shape, frame_shape, edge)
+    return footprint_at_offsets(path.offset_px(row_times_s), centre_px, size_px, shape, frame_shape, edge)
+
+
+def footprint_at_offsets(offset_px: np.ndarray, centre_px, size_px: float, shape: str, frame_shape: tuple[int, int],
+                         edge: str = "exact") -> Footprint:
+    """:func:`motion_footprint` from the offsets (dx, dy) each frame row sees, shape (height, 2), px."""
+    return footprint_per_row(centre_px[0] + offset_px[:, 0], centre_px[1] + offset_px[:, 1], size_px, shape,
+                             frame_shape, edge)
 
 
 def moved_light(light: Footprint, row_offsets_px: np.ndarray, frame_shape: tuple[int, int]) -> Footprint:
