@@ -347,6 +347,9 @@ class FrameTruth(Shown):
     led_rows : tuple of int or None
         The LED's first and last row; None when it is out of the frame.
     sdus : tuple of SduTruth
+    led_centre_px : tuple of float or None
+        Where the frame shows the LED's centre (x, y), px, when the scene
+        moves it (``motion``); None otherwise.
     """
 
     frame: int
@@ -355,6 +358,7 @@ class FrameTruth(Shown):
     exposure_s: float
     led_rows: Optional[tuple]
     sdus: tuple
+    led_centre_px: Optional[tuple] = None
 
     @classmethod
     def from_record(cls, record: Mapping) -> "FrameTruth":
@@ -371,10 +375,11 @@ class FrameTruth(Shown):
         if missing:
             raise args.error("record", f"{missing[0]}: missing (a truth.jsonl record has {', '.join(_TRUTH_KEYS)})")
         try:
-            rows = record.get("led_rows")
+            rows, centre = record.get("led_rows"), record.get("led_centre_px")
             return cls(int(record["frame"]), float(record["start_s"]), float(record["row_time_s"]),
                        float(record["exposure_s"]), tuple(rows) if rows else None,
-                       tuple(SduTruth(**sdu) for sdu in record["sdus"]))
+                       tuple(SduTruth(**sdu) for sdu in record["sdus"]),
+                       None if centre is None else (float(centre[0]), float(centre[1])))
         except (TypeError, ValueError, OverflowError) as exc:  # a field of the wrong type or shape
             raise args.error("record", f"not a truth.jsonl record ({clip(str(exc))})") from None
 
@@ -383,9 +388,12 @@ class FrameTruth(Shown):
 
     def to_record(self) -> dict:
         """The ``truth.jsonl`` record."""
-        return {"frame": self.frame, "start_s": self.start_s, "row_time_s": self.row_time_s,
-                "exposure_s": self.exposure_s, "led_rows": list(self.led_rows) if self.led_rows else None,
-                "sdus": [{f.name: getattr(sdu, f.name) for f in fields(SduTruth)} for sdu in self.sdus]}
+        record = {"frame": self.frame, "start_s": self.start_s, "row_time_s": self.row_time_s,
+                  "exposure_s": self.exposure_s, "led_rows": list(self.led_rows) if self.led_rows else None,
+                  "sdus": [{f.name: getattr(sdu, f.name) for f in fields(SduTruth)} for sdu in self.sdus]}
+        if self.led_centre_px is not None:
+            record["led_centre_px"] = list(self.led_centre_px)
+        return record
 
 
 class Truth(Shown, Sequence):

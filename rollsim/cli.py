@@ -1023,7 +1023,7 @@ def _add_bench_commands(sub) -> None:
             "receiver, along exposure, stripe SNR, blur, defocus, rows per chip, LED/background and saturation")
     p.add_argument("--frames", type=_positive_int, default=None, help="frames per cell (default 16; quick 2)")
     p.add_argument("--maps", metavar="NAME,...", default=None,
-                   help="maps to run (default all: exposure,snr,blur,defocus,rows_per_chip,contrast,saturation)")
+                   help="maps to run (default all: exposure,snr,blur,defocus,rows_per_chip,contrast,saturation,shake)")
     p.add_argument("--quick", action="store_true", help="two points per map, two frames per cell (a check, not results)")
     p.add_argument("--seed", type=int, default=None, help="sweep seed of every map (default: each scene's)")
     p.add_argument("--workers", type=_workers, default=None, help="local Dask workers (default: one per core)")

@@ -89,6 +89,55 @@ def test_exposure_map_scales_iso_like_auto_exposure():
     assert auto_iso(100.0) == 10000.0
 
 
+def test_shake_map_is_every_rows_per_chip_with_every_tremor_in_the_hands_proportions():
+    from rollsim.bench.envelope import DRIFT_PER_TREMOR, SHAKE_ROWS_PER_CHIP
+
+    shake = next(m for m in MAPS if m.name == "shake")
+    points = shake.points(False)
+    n = len(points["effects.motion.tremor_deg"])
+    assert all(len(values) == n for values in points.values())
+    tremors = sorted(set(points["effects.motion.tremor_deg"]))
+    assert n == len(tremors) * len(SHAKE_ROWS_PER_CHIP)
+    # Each (clock, tremor) pair once: the product of the two axes.
+    assert len(set(zip(points["link.clock_hz"], points["effects.motion.tremor_deg"]))) == n
+    for k in range(n):
+        tremor, drift = points["effects.motion.tremor_deg"][k], points["effects.motion.drift_deg"][k]
+        assert drift == pytest.approx(DRIFT_PER_TREMOR * tremor)
+        assert points["effects.motion.roll_tremor_deg"][k] == tremor
+        assert points["effects.motion.roll_drift_deg"][k] == drift
+        assert points["effects.motion.mode"][k] == "handheld"
+    row_time_s = 1.0 / 30.0 * 0.9 / 1080
+    rows = sorted({round(1.0 / (c * row_time_s), 3) for c in points["link.clock_hz"]})
+    assert rows == pytest.approx(sorted(SHAKE_ROWS_PER_CHIP), rel=1e-4)
+
+
+def _cell(series, x, ok, genie_ok, status="ok"):
+    return {"status": status, "rows_per_chip": series, "effects.motion.tremor_deg": x, "ok_fraction": ok,
+            "ok_ci_low": ok, "ok_ci_high": ok, "genie_ok_fraction": genie_ok, "genie_ok_ci_low": genie_ok,
+            "genie_ok_ci_high": genie_ok}
+
+
+def test_a_series_map_has_a_boundary_and_a_table_row_per_curve():
+    from rollsim.bench.envelope import boundaries, curves_of, table_rows
+
+    shake = next(m for m in MAPS if m.name == "shake")
+    rows = [_cell(4.5, 0.1, 1.0, 1.0), _cell(2.0, 0.1, 1.0, 1.0), _cell(4.5, 0.4, 0.5, 1.0), _cell(2.0, 0.4, 0.9, 1.0),
+            {"status": "error", "rows_per_chip": None}]
+    assert [v for v, _ in curves_of(shake, rows)] == [2.0, 4.5]
+    entries = boundaries(shake, rows)
+    assert [e["series_value"] for e in entries] == [2.0, 4.5]
+    # 2 rows per chip: 1.0 at 0.1, 0.9 at 0.4: the crossing at (0.05/0.1) of the way in log x.
+    low, high = entries[0]["decoder"][0]
+    assert low == pytest.approx(0.1) and high == pytest.approx(math.exp(math.log(0.1) + 0.5 * math.log(4.0)))
+    assert entries[1]["genie"] == [[0.1, 0.4]]
+    # The failed cell has no series value: it is counted once, with the first curve.
+    assert [e["failed"] for e in entries] == [1, 0]
+    names = [row[0] for row in table_rows({"boundaries": entries})]
+    assert names == ["shake (2 rows/chip)", "shake (4.5 rows/chip)"]
+    exposure = next(m for m in MAPS if m.name == "exposure")
+    assert [v for v, _ in curves_of(exposure, rows)] == [None]
+
+
 # ------------------------------------------------------------------ stage
 
 

@@ -44,6 +44,18 @@ def test_paper_default_follows_the_paper():
     assert load_scene("paper-10cm").link.distance_cm == 10
 
 
+def test_paper_handheld_is_paper_default_held_in_the_hand():
+    """paper-handheld differs from paper-default in its motion (the handheld defaults) and its name only."""
+    held, still = scene_to_dict(load_scene("paper-handheld")), scene_to_dict(load_scene("paper-default"))
+    motion = held["effects"].pop("motion")
+    assert motion["mode"] == "handheld"
+    defaults = scene_to_dict(load_scene("paper-default", ["effects.motion.mode=handheld"]))["effects"]["motion"]
+    assert motion == defaults
+    for data in (held, still):
+        data.pop("name"), data.pop("description")
+    assert held == still
+
+
 @pytest.mark.parametrize(
     "preset, row_time_us",
     [("galaxy_s3", 30.25), ("iphone4s", 24.12), ("iphone6s", 20.85), ("iphone3gs", 64.41)],

@@ -33,7 +33,16 @@ axis (:data:`MAPS`):
 ``saturation``
     the brightest pixel's ON level in full wells, 0.5 … 10, through the
     LED's intensity (effect-blooming: ISO 100, blooming on, no
-    anti-blooming drain).
+    anti-blooming drain);
+``shake``
+    a hand holding the phone (``motion``'s ``handheld`` mode): the tremor's
+    rms angle, 0.0125 … 0.8°, with the drift at 6 times it and the roll's
+    tremor and drift equal to the pan's and tilt's (the defaults'
+    proportions), one curve per rows per chip (1, 2, 4.5, 8, as for
+    ``rows_per_chip``), on paper-default with its glare.
+
+A map with a *series* (``shake``) is a family of curves, one per value of
+the series column; each curve has its own boundaries.
 
 The 95 %-ok boundary of a curve (:func:`ok_regions`): the axis values at
 which the ok fraction, linearly interpolated between adjacent points (in
@@ -104,6 +113,28 @@ def _contrast(ambient_lux: Sequence[float]) -> dict:
             "camera.iso": [_round(PAPER_ISO * PAPER_AMBIENT_LUX / a) for a in ambient_lux]}
 
 
+# The hand's proportions (motion's handheld defaults): drift rms 6 × the tremor's, roll as pan and tilt.
+DRIFT_PER_TREMOR = 6.0
+SHAKE_ROWS_PER_CHIP = (1.0, 2.0, 4.5, 8.0)
+
+
+def _shake(tremor_deg: Sequence[float], rows: Sequence[float]) -> dict:
+    """Every (rows per chip, tremor) pair: the rows-per-chip keys and the hand's, zipped."""
+    per_rows = _rows_per_chip(rows)
+    points: dict = {key: [] for key in [*per_rows, "effects.motion.mode", "effects.motion.tremor_deg",
+                                        "effects.motion.drift_deg", "effects.motion.roll_tremor_deg",
+                                        "effects.motion.roll_drift_deg"]}
+    for k in range(len(rows)):
+        for tremor in tremor_deg:
+            for key, values in per_rows.items():
+                points[key].append(values[k])
+            drift = _round(DRIFT_PER_TREMOR * tremor)
+            for key, value in (("mode", "handheld"), ("tremor_deg", tremor), ("drift_deg", drift),
+                               ("roll_tremor_deg", tremor), ("roll_drift_deg", drift)):
+                points[f"effects.motion.{key}"].append(value)
+    return points
+
+
 def _saturation(full_wells: Sequence[float]) -> dict:
     return {"led.luminous_intensity_cd": [_round(BLOOMING_CD * w / BLOOMING_FULL_WELLS) for w in full_wells]}
 
@@ -126,6 +157,10 @@ class EnvelopeMap:
     log_x : bool
     holds : str
         What the map varies and holds, in a sentence.
+    series : str or None
+        Column whose values split the map into curves (None: one curve).
+    series_label : str
+        How a curve is named by its series value (``"{:.3g} rows/chip"``).
     """
 
     name: str
@@ -136,6 +171,8 @@ class EnvelopeMap:
     x_label: str
     log_x: bool
     holds: str
+    series: Optional[str] = None
+    series_label: str = "{:g}"
 
 
 MAPS = (
@@ -175,6 +212,14 @@ MAPS = (
         lambda quick: _saturation([0.5, 3.0] if quick else [0.5, 0.75, 1, 1.25, 1.3, 1.35, 1.4, 1.45, 1.5, 2, 3, 4, 6, 8, 10]),
         "on_full_wells", "ON level of the brightest pixel, full wells", True,
         "effect-blooming (paper-geometric at ISO 100, blooming with no anti-blooming drain); LED intensity scaled"),
+    EnvelopeMap(
+        "shake", "Hand shake", "paper-default",
+        lambda quick: _shake([0.05, 0.4] if quick else [0.0125, 0.025, 0.05, 0.1, 0.2, 0.4, 0.8],
+                             [4.5] if quick else SHAKE_ROWS_PER_CHIP),
+        "effects.motion.tremor_deg", "tremor, rms angle in pan, tilt and roll, degrees", True,
+        "paper-default with its glare, held in the hand (motion: handheld): drift 6 × the tremor, roll as pan "
+        "and tilt; one curve per rows per chip (clock at the paper's row time, exposure 0.8 chips, ISO scaled)",
+        series="rows_per_chip", series_label="{:.3g} rows/chip"),
 )
 MAP_NAMES = tuple(m.name for m in MAPS)
 
@@ -354,26 +399,93 @@ def _curve(rows: list[dict], m: EnvelopeMap, prefix: str) -> tuple[list, list, l
 RECEIVERS = (("", "rollsim decoder", "tab:blue"), ("genie_", "genie-aided receiver", "tab:orange"))
 
 
-def boundaries(m: EnvelopeMap, rows: list[dict]) -> dict:
-    """Each receiver's stretches of the axis with ok ≥ 95 %, and the grid's span."""
-    result: dict = {"map": m.name, "x": m.x, "x_label": m.x_label}
-    spans = []
-    for prefix, _label, _colour in RECEIVERS:
-        x, y, _low, _high = _curve(rows, m, prefix)
-        name = prefix.rstrip("_") or "decoder"
-        result[name] = [list(r) for r in ok_regions(x, y, OK_LEVEL, m.log_x)] if x else []
-        spans += x
-    result["x_min"], result["x_max"] = (min(spans), max(spans)) if spans else (None, None)
-    return result
+def curves_of(m: EnvelopeMap, rows: list[dict]) -> list[tuple[Optional[float], list[dict]]]:
+    """The map's curves: ``[(series value, rows)]`` by rising value; one ``(None, rows)`` without a series.
+
+    A row whose series column has no value (a failed cell) joins no curve.
+    """
+    if m.series is None:
+        return [(None, rows)]
+    values = sorted({float(r[m.series]) for r in rows if r.get(m.series) is not None})
+    return [(v, [r for r in rows if r.get(m.series) is not None and math.isclose(float(r[m.series]), v)])
+            for v in values]
 
 
-def plot_map(m: EnvelopeMap, rows: list[dict], bounds: dict, target) -> None:
-    """Ok % of both receivers against the map's axis, 95 % intervals as bands, the 95 %-ok boundaries dashed."""
+def boundaries(m: EnvelopeMap, rows: list[dict]) -> list[dict]:
+    """Each curve's stretches of the axis with ok ≥ 95 % per receiver, and the grid's span.
+
+    One entry per curve; a series map's entries name their ``series`` column
+    and ``series_value``, and count their ``cells`` and ``failed`` cells.
+    """
+    entries = []
+    for value, curve_rows in curves_of(m, rows):
+        result: dict = {"map": m.name, "x": m.x, "x_label": m.x_label}
+        if m.series is not None:
+            result.update(series=m.series, series_value=value)
+        spans = []
+        for prefix, _label, _colour in RECEIVERS:
+            x, y, _low, _high = _curve(curve_rows, m, prefix)
+            name = prefix.rstrip("_") or "decoder"
+            result[name] = [list(r) for r in ok_regions(x, y, OK_LEVEL, m.log_x)] if x else []
+            spans += x
+        result["x_min"], result["x_max"] = (min(spans), max(spans)) if spans else (None, None)
+        result["cells"] = len(curve_rows)
+        result["failed"] = sum(1 for row in curve_rows if row["status"] != "ok")
+        entries.append(result)
+    if m.series is not None:
+        # Cells that failed before their series column was known belong to no curve: count them once.
+        unplaced = [row for row in rows if row.get(m.series) is None]
+        if unplaced and entries:
+            entries[0]["failed"] += len(unplaced)
+    return entries
+
+
+def plot_map(m: EnvelopeMap, rows: list[dict], bounds: list[dict], target) -> None:
+    """Ok % of both receivers against the map's axis, 95 % intervals as bands, the 95 %-ok boundaries dashed.
+
+    A series map draws one colour per curve, the decoder solid and the genie
+    dotted, without bands or boundaries (they would hide the curves).
+    """
+    from matplotlib import colormaps
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6.4, 4.4))
     fig.subplots_adjust(left=0.12, right=0.97, bottom=0.12, top=0.84)
     ax = fig.subplots()
+    curves = curves_of(m, rows)
+    if m.series is None:
+        _plot_single(ax, m, rows, bounds[0])
+    else:
+        palette = colormaps["viridis"]
+        for k, (value, curve_rows) in enumerate(curves):
+            colour = palette(k / max(1, len(curves) - 1) * 0.9)
+            for (prefix, label, _c), style in zip(RECEIVERS, ("o-", "s:")):
+                x, y, _low, _high = _curve(curve_rows, m, prefix)
+                order = sorted(range(len(x)), key=x.__getitem__)
+                ax.plot([x[i] for i in order], [100 * y[i] for i in order], style, color=colour, markersize=3,
+                        label=f"{m.series_label.format(value)}, {label}")
+    ax.axhline(100 * OK_LEVEL, color="grey", linestyle=":", linewidth=1)
+    if m.log_x:
+        ax.set_xscale("log")
+    if m.series is not None:
+        # The grid's own values as ticks: a log axis's minor labels would overlap.
+        ticks = sorted({float(r[m.x]) for r in rows if r.get(m.x) is not None})
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+        ax.minorticks_off()
+    ax.set(xlabel=m.x_label, ylabel="ok % of fully visible PHY-SDUs", ylim=(-3, 103))
+    import textwrap
+
+    ax.set_title(m.title + "\n" + textwrap.fill(m.holds, 95), fontsize=8)
+    ax.grid(alpha=0.3)
+    if m.series is None:
+        ax.legend(loc="best", fontsize=8, title="dashed: 95 %-ok boundary", title_fontsize=7)
+    else:
+        ax.legend(loc="best", fontsize=6, ncol=2)
+    fig.savefig(target, dpi=100, format="png", metadata={"Software": None})
+
+
+def _plot_single(ax, m: EnvelopeMap, rows: list[dict], bounds: dict) -> None:
+    """One curve per receiver with its interval band and its 95 %-ok boundaries."""
     for prefix, label, colour in RECEIVERS:
         x, y, low, high = _curve(rows, m, prefix)
         if not x:
@@ -387,16 +499,6 @@ def plot_map(m: EnvelopeMap, rows: list[dict], bounds: dict, target) -> None:
             for edge in region:
                 if not (math.isclose(edge, xs[0]) or math.isclose(edge, xs[-1])):
                     ax.axvline(edge, color=colour, linestyle="--", linewidth=1)
-    ax.axhline(100 * OK_LEVEL, color="grey", linestyle=":", linewidth=1)
-    if m.log_x:
-        ax.set_xscale("log")
-    ax.set(xlabel=m.x_label, ylabel="ok % of fully visible PHY-SDUs", ylim=(-3, 103))
-    import textwrap
-
-    ax.set_title(m.title + "\n" + textwrap.fill(m.holds, 95), fontsize=8)
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8, title="dashed: 95 %-ok boundary", title_fontsize=7)
-    fig.savefig(target, dpi=100, format="png", metadata={"Software": None})
 
 
 # ------------------------------------------------------------------ output
@@ -425,13 +527,17 @@ TABLE_HEADER = ("map", "axis", "grid", "decoder ok ≥ 95 %", "genie ok ≥ 95 %
 
 
 def table_rows(result: dict) -> list[tuple]:
+    """One row per curve: a series map's curves are named by their series value."""
+    labels = {m.name: m.series_label for m in MAPS}
     rows = []
     for b in result["boundaries"]:
         grid = "n/a" if b["x_min"] is None else f"{b['x_min']:.3g} … {b['x_max']:.3g}"
         regions = [format_regions([tuple(r) for r in b[name]], b["x_min"], b["x_max"]) if b["x_min"] is not None
                    else "n/a" for name in ("decoder", "genie")]
-        failed = sum(1 for row in result["maps"][b["map"]] if row["status"] != "ok")
-        rows.append((b["map"], b["x_label"], grid, *regions, failed))
+        name = b["map"]
+        if b.get("series_value") is not None:
+            name = f"{name} ({labels.get(name, '{:g}').format(b['series_value'])})"
+        rows.append((name, b["x_label"], grid, *regions, b["failed"]))
     return rows
 
 
@@ -448,7 +554,9 @@ def write_outputs(result: dict, maps: list[EnvelopeMap], paths: dict[str, Path],
 
     contents: dict = {paths["envelope.md"]: format_markdown(result) + "\n",
                       paths["envelope.json"]: json.dumps(result, indent=2, allow_nan=False) + "\n"}
-    bounds = {b["map"]: b for b in result["boundaries"]}
+    bounds: dict[str, list] = {}
+    for b in result["boundaries"]:
+        bounds.setdefault(b["map"], []).append(b)
     for m in maps:
         rows = result["maps"][m.name]
         contents[paths[f"{m.name}.csv"]] = csv_text(rows, map_columns(m, rows))
@@ -481,7 +589,7 @@ def bench_envelope(maps: list[EnvelopeMap], frames: int, quick: bool = False, wo
         n_workers = worker_count(client)
     return {"frames": frames, "quick": quick, "seconds": time.perf_counter() - start, "workers": n_workers,
             "machine": machine(), "ok_level": OK_LEVEL,
-            "boundaries": [boundaries(m, results[m.name]) for m in maps], "maps": results}
+            "boundaries": [b for m in maps for b in boundaries(m, results[m.name])], "maps": results}
 
 
 def main(args) -> int:

@@ -6,7 +6,8 @@ is at that row's mid-exposure (:mod:`rollsim.optics.motion`), and goes to
 ``glare`` shape the LED's light, that light is an image of the LED too: a
 translation moves it unchanged, so the light computed once at the rest
 position is shifted per row (:func:`rollsim.optics.motion.moved_light`)
-into ``state.led_light``, and the LED's rows move with it.
+into ``state.led_light``, and the LED's rows move with it. The truth
+records where each frame shows the LED's centre (``led_centre_px``).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pydantic import Field
 
 from rollsim.effects.base import Effect, EffectParams, StageRun
 from rollsim.optics.footprint import led_rows_from_coverage
-from rollsim.optics.motion import footprint_at_offsets, moved_light, path_from_params
+from rollsim.optics.motion import RestLight, centre_seen_px, footprint_at_offsets, path_from_params, path_on_grid
 from rollsim.optics.psf import blur_canvas, total_radius
 
 if TYPE_CHECKING:
@@ -69,22 +70,25 @@ def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     height, width = setup.shape
     cx, cy = setup.led_centre_px
     rows = np.arange(-ry, height + ry)
-    light = setup.led_light  # the rest position's light, where led_profile or glare shape it
+    # The rest position's light, where led_profile or glare shape it, padded once for every frame.
+    light = None if setup.led_light is None else RestLight.of(setup.led_light, setup.shape)
+
+    # Each row sees the LED at its mid-exposure, at fixed times from the frame's start.
+    grid = path_on_grid(path, (rows - rows % timing.binning_rows) * timing.row_time_s + 0.5 * timing.exposure_s)
 
     def run(state: FrameState) -> None:
-        mid_exposure_s = state.start_s + (rows - rows % timing.binning_rows) * timing.row_time_s \
-            + 0.5 * timing.exposure_s
         # One evaluation of the path per frame serves the footprint and the moved light.
-        offsets = path.offset_px(mid_exposure_s)
+        offsets = grid.offset_px(state.start_s)
         canvas = footprint_at_offsets(offsets, (cx + rx, cy + ry), setup.led_size_px, scene.led.shape,
                                       (height + 2 * ry, width + 2 * rx), scene.render.footprint_edge)
         fp = blur_canvas(canvas, kernels, setup.shape) if kernels else canvas
         state.footprint = fp
+        frame_offsets = offsets[ry:ry + height]
+        state.led_centre_px = centre_seen_px(frame_offsets, (cx, cy))
         if light is None:
             state.led_rows = led_rows_from_coverage(fp.row_coverage(timing.height_px)) or ()
             return
-        frame_offsets = offsets[ry:ry + height]
-        state.led_light = moved_light(light, frame_offsets, setup.shape)
+        state.led_light = light.moved(frame_offsets)
         state.led_rows = moved_rows(setup.led_rows, frame_offsets[:, 1])
 
     return run
@@ -110,5 +114,5 @@ EFFECT = Effect(
     build_stage=build_stage,
     variant="mode",
     reads=("state.start_s", "setup.lens_kernels", "setup.led_size_px", "setup.led_light", "setup.led_rows"),
-    writes=("state.footprint", "state.led_light", "state.led_rows"),
+    writes=("state.footprint", "state.led_light", "state.led_rows", "state.led_centre_px"),
 )

@@ -139,6 +139,15 @@ class HandheldPath:
     Roll turns the LED's image about the frame's centre: with the LED's
     rest position r from the centre, a small roll θ moves it by θ·(−r_y, r_x).
 
+    The amplitudes are the caller's. ``motion``'s defaults (0.05° rms of
+    tremor, 0.3° of drift) are assumed: no published rms angle of a
+    hand-held phone was found. Their angular rates (0.054 and 0.007 rad/s
+    rms) lie inside the ±0.5 rad/s scale of a hand-held phone's gyroscope
+    trace (Karpenko, Jacobs, Baek and Levoy, Stanford CSTR 2011-03,
+    Fig. 1). Hand-held cameras also shake near 2 and 4 Hz (the shutter
+    press; hand and forearm: *Jpn J Ergonomics* 31(6):399), which the two
+    bands here leave out.
+
     Parameters
     ----------
     seed : int
@@ -173,10 +182,68 @@ class HandheldPath:
 
     def offset_px(self, t_s) -> np.ndarray:
         """Offsets (dx, dy) in pixels at times ``t_s``, shape (n, 2): translation plus roll about the centre."""
-        roll = self.axis(2, t_s)
-        dx = self.axis(0, t_s) - roll * self.lever_px[1]
-        dy = self.axis(1, t_s) + roll * self.lever_px[0]
-        return np.stack([dx, dy], axis=1)
+        return self.combine(self.axis(0, t_s), self.axis(1, t_s), self.axis(2, t_s))
+
+    def combine(self, x_px: np.ndarray, y_px: np.ndarray, roll_rad: np.ndarray) -> np.ndarray:
+        """The LED's offsets (dx, dy), shape (n, 2), from the three components: translation plus roll."""
+        return np.stack([x_px - roll_rad * self.lever_px[1], y_px + roll_rad * self.lever_px[0]], axis=1)
+
+    def on_grid(self, offsets_s) -> "HandheldGrid":
+        """The path on a grid of times that moves with the frame: see :class:`HandheldGrid`."""
+        return HandheldGrid(self, offsets_s)
+
+
+class HandheldGrid:
+    """A :class:`HandheldPath` at ``start + offsets_s`` for any start, the grid's sines computed once.
+
+    sin(2πf(t₀ + τ) + φ) = sin a·cos b + cos a·sin b with a = 2πf·t₀ + φ and
+    b = 2πf·τ: the (components × grid) tables of cos b and sin b are the
+    same every frame (a frame's rows sit at fixed times from its start), so
+    a frame costs the 3 × 72 sines of its start and two matrix products,
+    not a sine per row and component (a hundredth of the time at 1080
+    rows). The same values as :meth:`HandheldPath.offset_px` to rounding
+    (tested to 1e-9 px at t = 10⁴ s).
+
+    Parameters
+    ----------
+    path : HandheldPath
+    offsets_s : ndarray, shape (n,)
+        Times from the start, s (small: within a frame).
+    """
+
+    def __init__(self, path: HandheldPath, offsets_s):
+        self.path = path
+        tau = np.asarray(offsets_s, dtype=np.float64)
+        self.tables = []
+        for frequency, _amplitude, _phase in path.components:
+            angle = 2.0 * np.pi * frequency[:, None] * tau[None, :]
+            self.tables.append((np.cos(angle), np.sin(angle)))
+
+    def offset_px(self, start_s: float) -> np.ndarray:
+        """Offsets (dx, dy) in pixels at ``start_s + offsets_s``, shape (n, 2)."""
+        values = []
+        for (frequency, amplitude, phase), (cos_b, sin_b) in zip(self.path.components, self.tables):
+            # Cycles modulo 1 before the sine: exact phases at long times.
+            a = 2.0 * np.pi * np.mod(float(start_s) * frequency, 1.0) + phase
+            values.append((amplitude * np.sin(a)) @ cos_b + (amplitude * np.cos(a)) @ sin_b)
+        return self.path.combine(*values)
+
+
+@dataclass(frozen=True)
+class ShiftedGrid:
+    """Any path at ``start + offsets_s``: its ``offset_px`` there (no tables to share)."""
+
+    path: object
+    offsets_s: np.ndarray
+
+    def offset_px(self, start_s: float) -> np.ndarray:
+        return self.path.offset_px(start_s + self.offsets_s)  # type: ignore[attr-defined]
+
+
+def path_on_grid(path, offsets_s):
+    """``path`` on times ``start + offsets_s``: an object whose ``offset_px(start_s)`` gives (n, 2) px."""
+    on_grid = getattr(path, "on_grid", None)
+    return on_grid(offsets_s) if on_grid is not None else ShiftedGrid(path, np.asarray(offsets_s, dtype=np.float64))
 
 
 def path_from_params(params, seed: int, frame_period_s: float, px_per_rad: float = 0.0, lever_px=(0.0, 0.0)):
@@ -218,6 +285,28 @@ def footprint_at_offsets(offset_px: np.ndarray, centre_px, size_px: float, shape
                              frame_shape, edge)
 
 
+def centre_seen_px(row_offsets_px: np.ndarray, centre_px) -> tuple[float, float]:
+    """Where a frame shows the LED's centre: (x, y) in pixels.
+
+    Row y sees the LED's centre at ``centre + offset_y`` (its offset at that
+    row's time), so the centre is shown by the row nearest to the row its
+    own offset puts it on: the discrete fixed point of y = c_y + dy_y. Its
+    position is the one that row sees. A centre beyond the frame is placed
+    by the edge row nearest to it.
+
+    Parameters
+    ----------
+    row_offsets_px : ndarray, shape (height, 2)
+        The offsets (dx, dy) each frame row sees, px.
+    centre_px : (float, float)
+        Rest position (x, y) of the LED's centre, px.
+    """
+    rows = np.arange(row_offsets_px.shape[0])
+    seen = row_offsets_px + np.asarray(centre_px, dtype=np.float64)
+    row = int(np.argmin(np.abs(rows - seen[:, 1])))
+    return float(seen[row, 0]), float(seen[row, 1])
+
+
 def moved_light(light: Footprint, row_offsets_px: np.ndarray, frame_shape: tuple[int, int]) -> Footprint:
     """A static light moved as each row sees it: row y shows the light at (x − dx_y, y − dy_y).
 
@@ -247,46 +336,76 @@ def moved_light(light: Footprint, row_offsets_px: np.ndarray, frame_shape: tuple
     Footprint
         The moved light on the rows and columns it can reach.
     """
-    height, width = frame_shape
-    values = np.asarray(light.coverage, dtype=np.float64)
-    if values.size == 0:
-        return light
-    r0, c0 = light.rows.start, light.cols.start
-    dx, dy = row_offsets_px[:, 0], row_offsets_px[:, 1]
-    # The output box: the light's box widened by the largest shift, within the frame.
-    rows = slice(max(0, int(np.floor(r0 + dy.min())) - 1), min(height, int(np.ceil(light.rows.stop + dy.max())) + 1))
-    cols = slice(max(0, int(np.floor(c0 + dx.min())) - 1), min(width, int(np.ceil(light.cols.stop + dx.max())) + 1))
-    if rows.stop <= rows.start or cols.stop <= cols.start:
-        return Footprint(slice(0, 0), slice(0, 0), np.zeros((0, 0)))
-    y = np.arange(rows.start, rows.stop)
-    # One row and column pad the light on each side: an index clipped into the
-    # padding reads 0, the light outside its box, or the edge's values where
-    # the box reaches the frame's edge (the light goes on beyond it, unknown).
-    padded = np.pad(values, 1)
-    if light.rows.start == 0:
-        padded[0] = padded[1]
-    if light.rows.stop == height:
-        padded[-1] = padded[-2]
-    if light.cols.start == 0:
-        padded[:, 0] = padded[:, 1]
-    if light.cols.stop == width:
-        padded[:, -1] = padded[:, -2]
-    # Output row y reads the light's rows i0, i0 + 1 around y − dy_y with weights 1 − a, a, and
-    # column x its columns around x − dx_y: x − c0 + 1 + k and the next, with weights 1 − b, b.
-    source = y - dy[y] - r0 + 1.0
-    i0 = np.floor(source).astype(np.int64)
-    a = source - i0
-    shift = -dx[y]
-    k = np.floor(shift).astype(np.int64)
-    b = shift - k
-    first_col = cols.start - c0 + 1
-    out = np.empty((y.size, cols.stop - cols.start))
-    compiled = _bilinear_rows.compiled
-    if compiled is not None:
-        compiled(padded, i0, a, k, b, first_col, out)
-    else:
-        _bilinear_rows_numpy(padded, i0, a, k, b, first_col, out)
-    return Footprint(rows, cols, out)
+    return RestLight.of(light, frame_shape).moved(row_offsets_px)
+
+
+@dataclass(frozen=True)
+class RestLight:
+    """A light at rest, padded once per scene so that each frame only samples it (:func:`moved_light`).
+
+    Attributes
+    ----------
+    padded : ndarray
+        The light's values with one row and column on each side: 0 (the
+        light outside its box), or the edge's values where the box reaches
+        an edge of the frame (the light goes on beyond it, unknown).
+    rows, cols : slice
+        The light's box in the frame.
+    frame_shape : (int, int)
+    """
+
+    padded: np.ndarray
+    rows: slice
+    cols: slice
+    frame_shape: tuple
+
+    @classmethod
+    def of(cls, light: Footprint, frame_shape: tuple[int, int]) -> "RestLight":
+        height, width = frame_shape
+        padded = np.pad(np.asarray(light.coverage, dtype=np.float64), 1)
+        if light.coverage.size:
+            if light.rows.start == 0:
+                padded[0] = padded[1]
+            if light.rows.stop == height:
+                padded[-1] = padded[-2]
+            if light.cols.start == 0:
+                padded[:, 0] = padded[:, 1]
+            if light.cols.stop == width:
+                padded[:, -1] = padded[:, -2]
+        return cls(padded, light.rows, light.cols, tuple(frame_shape))
+
+    def moved(self, row_offsets_px: np.ndarray) -> Footprint:
+        """The light as each frame row sees it, moved by that row's offset (dx, dy), px (:func:`moved_light`)."""
+        height, width = self.frame_shape
+        if min(self.padded.shape) <= 2:  # an empty light (its box has no pixel)
+            return Footprint(self.rows, self.cols, self.padded[1:-1, 1:-1])
+        r0, c0 = self.rows.start, self.cols.start
+        dx, dy = row_offsets_px[:, 0], row_offsets_px[:, 1]
+        # The output box: the light's box widened by the largest shift, within the frame; a box that
+        # reaches an edge of the frame keeps reaching it (the light is continued past that edge).
+        rows = slice(0 if r0 == 0 else max(0, int(np.floor(r0 + dy.min())) - 1),
+                     height if self.rows.stop == height else min(height, int(np.ceil(self.rows.stop + dy.max())) + 1))
+        cols = slice(0 if c0 == 0 else max(0, int(np.floor(c0 + dx.min())) - 1),
+                     width if self.cols.stop == width else min(width, int(np.ceil(self.cols.stop + dx.max())) + 1))
+        if rows.stop <= rows.start or cols.stop <= cols.start:
+            return Footprint(slice(0, 0), slice(0, 0), np.zeros((0, 0)))
+        y = np.arange(rows.start, rows.stop)
+        # Output row y reads the light's rows i0, i0 + 1 around y − dy_y with weights 1 − a, a, and
+        # column x its columns around x − dx_y: x − c0 + 1 + k and the next, with weights 1 − b, b.
+        source = y - dy[y] - r0 + 1.0
+        i0 = np.floor(source).astype(np.int64)
+        a = source - i0
+        shift = -dx[y]
+        k = np.floor(shift).astype(np.int64)
+        b = shift - k
+        first_col = cols.start - c0 + 1
+        out = np.empty((y.size, cols.stop - cols.start))
+        compiled = _bilinear_rows.compiled
+        if compiled is not None:
+            compiled(self.padded, i0, a, k, b, first_col, out)
+        else:
+            _bilinear_rows_numpy(self.padded, i0, a, k, b, first_col, out)
+        return Footprint(rows, cols, out)
 
 
 def _bilinear_rows_numpy(padded, i0, a, k, b, first_col, out) -> None:
@@ -304,19 +423,34 @@ def _bilinear_rows_numpy(padded, i0, a, k, b, first_col, out) -> None:
 
 @kernel
 def _bilinear_rows(padded, i0, a, k, b, first_col, out):  # pragma: no cover - compiled by numba
+    # Two passes per row, as the numpy twin: the two source rows blended once into
+    # ``vertical`` (over the columns the row reads), then each output pixel from two of
+    # those. Rows taken as 1-D views and the clamp kept out of the inner loop let it vectorise.
     last_row = padded.shape[0] - 1
     last_col = padded.shape[1] - 1
+    width = out.shape[1]
+    vertical = np.empty(padded.shape[1])
     for r in range(out.shape[0]):
-        upper = min(max(i0[r], 0), last_row)
-        lower = min(max(i0[r] + 1, 0), last_row)
+        source_upper = padded[min(max(i0[r], 0), last_row)]
+        source_lower = padded[min(max(i0[r] + 1, 0), last_row)]
         down = a[r]
         up = 1.0 - down
+        offset = first_col + k[r]
+        lo = min(max(offset, 0), last_col)
+        hi = min(max(offset + width, 0), last_col)
+        for j in range(lo, hi + 1):
+            vertical[j] = up * source_upper[j] + down * source_lower[j]
         across = b[r]
         stay = 1.0 - across
-        for c in range(out.shape[1]):
-            j = first_col + c + k[r]
-            j0 = min(max(j, 0), last_col)
-            j1 = min(max(j + 1, 0), last_col)
-            left = up * padded[upper, j0] + down * padded[lower, j0]
-            right = up * padded[upper, j1] + down * padded[lower, j1]
-            out[r, c] = stay * left + across * right
+        row = out[r]
+        # Columns whose two sources lie inside the padded light need no clamp.
+        inner_lo = min(max(-offset, 0), width)
+        inner_hi = max(min(last_col - offset, width), inner_lo)
+        for c in range(inner_lo, inner_hi):
+            row[c] = stay * vertical[offset + c] + across * vertical[offset + c + 1]
+        for c in range(0, inner_lo):
+            row[c] = stay * vertical[min(max(offset + c, 0), last_col)] \
+                + across * vertical[min(max(offset + c + 1, 0), last_col)]
+        for c in range(inner_hi, width):
+            row[c] = stay * vertical[min(max(offset + c, 0), last_col)] \
+                + across * vertical[min(max(offset + c + 1, 0), last_col)]

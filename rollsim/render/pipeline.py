@@ -122,7 +122,7 @@ class RenderPipeline:
     def render(self, index: int) -> RenderedFrame:
         """Render frame ``index``: the image and its truth record."""
         state = self.run_stages(index)
-        truth = frame_truth(self.setup, state.index, state.start_s, state.led_rows)
+        truth = frame_truth(self.setup, state.index, state.start_s, state.led_rows, state.led_centre_px)
         return RenderedFrame(state.index, state.image, truth)
 
 

@@ -35,7 +35,7 @@ def _bit_strings(bits: np.ndarray) -> list[str]:
     return ["".join("1" if b else "0" for b in row) for row in bits.tolist()]
 
 
-def frame_truth(setup: SceneSetup, index: int, start_s: float, led_rows=None) -> dict:
+def frame_truth(setup: SceneSetup, index: int, start_s: float, led_rows=None, led_centre_px=None) -> dict:
     """The truth record of frame ``index`` starting at ``start_s``.
 
     Parameters
@@ -46,6 +46,10 @@ def frame_truth(setup: SceneSetup, index: int, start_s: float, led_rows=None) ->
         Actual frame start (with jitter, when that effect is on).
     led_rows : (int, int), () or None, optional
         The LED's rows in this frame (``()``: none); None means the setup's.
+    led_centre_px : (float, float) or None, optional
+        Where the frame shows the LED's centre (x, y), px, when the LED
+        moves (``motion``); recorded as ``led_centre_px`` only then, so a
+        still scene's truth keeps its bytes.
     """
     timing, tx = setup.timing, setup.transmitter
     led_rows = setup.led_rows if led_rows is None else led_rows
@@ -58,6 +62,8 @@ def frame_truth(setup: SceneSetup, index: int, start_s: float, led_rows=None) ->
         "led_rows": list(led_rows) if led_rows else None,
         "sdus": [],
     }
+    if led_centre_px is not None:
+        record["led_centre_px"] = [float(v) for v in led_centre_px]
     if timing.binning_rows > 1:  # written only when binned, so unbinned truth files keep their bytes
         record["binning_rows"] = int(timing.binning_rows)
     emissions = tx.emissions_between(start_s, span_end)

@@ -63,6 +63,9 @@ class FrameState:
     led_rows : (int, int), () or None
         This frame's LED rows for the truth; ``()`` when no row is an LED
         row; None means ``setup.led_rows``.
+    led_centre_px : (float, float) or None
+        Where this frame shows the LED's centre (x, y), px, when it moves
+        (``motion``); None: at rest, not recorded in the truth.
     ambient_row_factor : ndarray, shape (H,), or None
         Relative ambient exposure of each row (the ``flicker`` effect);
         None means 1.
@@ -79,6 +82,7 @@ class FrameState:
     footprint: Footprint | None = None
     led_light: Footprint | None = None
     led_rows: tuple | None = None
+    led_centre_px: tuple | None = None
     ambient_row_factor: np.ndarray | None = None
 
     @property

@@ -11,6 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from rollsim.calibrate import goodput_text, position_text
 from rollsim.calibrate.mmbp import p_e_text
 from rollsim.plumbing.text_tables import format_number, format_percent, markdown_table
@@ -69,6 +71,47 @@ def _evaluation_lines(summary: dict) -> list[str]:
     return lines
 
 
+def roi_figures(truth: list[dict], height_px: int) -> dict:
+    """The LED's rows and position over a run's frames, from their truth records.
+
+    Parameters
+    ----------
+    truth : list of dict
+        ``truth.jsonl`` records.
+    height_px : int
+        The frames' height, rows.
+
+    Returns
+    -------
+    dict
+        ``roi_ratio`` (mean over frames of the LED's rows over the frame's:
+        the paper's ROI ratio, Fig. 11; a frame without LED rows counts 0),
+        ``roi_min``, ``roi_max``; where the truth records the LED's centre
+        (``motion``), ``centre_std_px`` ((x, y) standard deviation over
+        frames) and ``centre_range_px`` (the largest distance from the mean
+        centre), else None for both.
+    """
+    fractions = np.array([(r["led_rows"][1] - r["led_rows"][0] + 1) / height_px if r.get("led_rows") else 0.0
+                          for r in truth]) if truth else np.zeros(1)
+    figures: dict = {"roi_ratio": float(fractions.mean()), "roi_min": float(fractions.min()),
+               "roi_max": float(fractions.max()), "centre_std_px": None, "centre_range_px": None}
+    centres = np.array([r["led_centre_px"] for r in truth if r.get("led_centre_px") is not None], dtype=np.float64)
+    if centres.size:
+        figures["centre_std_px"] = tuple(float(v) for v in centres.std(axis=0))
+        figures["centre_range_px"] = float(np.hypot(*(centres - centres.mean(axis=0)).T).max())
+    return figures
+
+
+def _roi_lines(figures: dict) -> list[str]:
+    lines = [f"ROI ratio (the share of a frame's rows that show the LED, from the truth's LED rows): "
+             f"{figures['roi_ratio']:.3f} on average, {figures['roi_min']:.3f} … {figures['roi_max']:.3f} over frames."]
+    if figures["centre_std_px"] is not None:
+        sx, sy = figures["centre_std_px"]
+        lines.append(f"The LED's centre, where the frames show it, moves {sx:.1f} px in x and {sy:.1f} px in y "
+                     f"(standard deviations over frames), at most {figures['centre_range_px']:.1f} px from its mean.")
+    return lines
+
+
 def _calibration_lines(calibration: dict) -> list[str]:
     m, ge, prediction = calibration["mmbp"], calibration["ge"], calibration.get("prediction")
     criteria = calibration["criteria"]
@@ -120,6 +163,8 @@ TERMS = (
      "not decoded", "docs/evaluation.md, Evaluation"),
     ("false decode", "a decoded record that matches no emission (its middle row in no PHY-SDU's rows of its frame)",
      "docs/evaluation.md, Evaluation"),
+    ("ROI ratio", "the share of a frame's rows that show the LED (the truth's `led_rows`; the paper's Fig. 11)",
+     "docs/render.md, Ground truth: `truth.jsonl`"),
     ("M, N", "the MMBP's ON and OFF slots per cycle of a frame period: an emission in an OFF slot is never "
      "received", "docs/channel-models.md, Channel models"),
     ("p_e", "the probability that an emission in an ON slot is lost all the same; with its 95 % interval",
@@ -168,7 +213,8 @@ def write_report(run_dir: Path, scene: Scene, evaluation, calibration: dict | No
     truth = read_jsonl(run_dir / "truth.jsonl")
     decoded = read_jsonl(run_dir / "decoded.jsonl")
     figures = _draw_plots(run_dir, scene, evaluation, calibration, truth, decoded)
-    lines = _report_lines(scene, evaluation, calibration, timings, calibration_error, len(truth), figures)
+    lines = _report_lines(scene, evaluation, calibration, timings, calibration_error, len(truth), figures,
+                          roi_figures(truth, scene.camera.height_px))
     report = run_dir / "report.md"
     report.write_text("\n".join(lines), encoding="utf-8")
     return report
@@ -202,7 +248,7 @@ def _draw_plots(run_dir: Path, scene: Scene, evaluation, calibration: dict | Non
 
 
 def _report_lines(scene: Scene, evaluation, calibration: dict | None, timings: dict, calibration_error: str | None,
-                  n_frames: int, figures: list) -> list[str]:
+                  n_frames: int, figures: list, roi: dict) -> list[str]:
     """The lines of ``report.md``: the scene, time per stage, evaluation, calibration and the plots."""
     lines = [f"# rollsim run: {scene.name}", ""]
     if scene.description:
@@ -210,6 +256,7 @@ def _report_lines(scene: Scene, evaluation, calibration: dict | None, timings: d
     lines += _scene_lines(scene) + ["", f"{n_frames} frames: render → decode → evaluate → calibrate → report.", ""]
     lines += ["## Time per stage", ""] + _timing_lines(timings, n_frames) + [""]
     lines += ["## Evaluation against the ground truth", ""] + _evaluation_lines(evaluation.summary) + [""]
+    lines += _roi_lines(roi) + [""]
     if calibration is not None:
         lines += ["## Calibration", ""] + _calibration_lines(calibration) + [""]
     else:

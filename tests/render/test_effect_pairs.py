@@ -158,7 +158,7 @@ def render_checked(scene) -> tuple[list[np.ndarray], list[dict]]:
                 bad = non_finite(state, "state", skip=("setup",))
                 assert not bad, f"frame {index}, after stage {stage.name}: not finite: {', '.join(bad)}"
             images.append(state.image)
-            truths.append(frame_truth(setup, state.index, state.start_s, state.led_rows))
+            truths.append(frame_truth(setup, state.index, state.start_s, state.led_rows, state.led_centre_px))
     return images, truths
 
 

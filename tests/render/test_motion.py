@@ -42,7 +42,10 @@ def test_zero_amplitude_is_the_static_render_exactly(motion, shape):
     moving = RenderPipeline(_motion_scene(motion, effects, led={"shape": shape}))
     for k in (0, 2):
         a, b = static.render(k), moving.render(k)
+        # The moving scene's truth also records the LED's centre, here at rest.
+        centre = b.truth.pop("led_centre_px")
         assert np.array_equal(a.image, b.image) and a.truth == b.truth
+        assert centre == list(static.setup.led_centre_px)
 
 
 @pytest.mark.parametrize("speed", [-0.4, -0.1, 0.1, 0.3])
@@ -95,6 +98,40 @@ def test_truth_led_rows_follow_a_vertical_sinusoid():
         assert abs(first - (static_first + dy[0])) <= 1.5 and abs(last - (static_last + dy[1])) <= 1.5
         shifts.append(first - static_first)
     assert max(shifts) - min(shifts) > 10
+
+
+@pytest.mark.parametrize("slope, intercept", [(0.0, 12.5), (0.02, -3.0), (-0.05, 40.0)])
+def test_centre_seen_is_the_fixed_point_of_the_rows_offsets(slope, intercept):
+    """Offsets growing linearly down the frame (dy = a·y + b, a vertical velocity of a rows per row):
+    the row that shows the centre solves y = c_y + a·y + b, y = (c_y + b)/(1 − a), to half a row
+    (over 1 − a); x is the rest x plus that row's dx."""
+    from rollsim.optics.motion import centre_seen_px
+
+    rows = np.arange(400.0)
+    offsets = np.stack([0.1 * rows - 4.0, slope * rows + intercept], axis=1)
+    x, y = centre_seen_px(offsets, (150.0, 180.0))
+    exact = (180.0 + intercept) / (1.0 - slope)
+    assert abs(y - exact) <= 0.5 * abs(slope) / (1.0 - slope) + 1e-9
+    # The row is one of the two around the fixed point; x is that row's.
+    assert any(x == pytest.approx(150.0 + 0.1 * r - 4.0) and y == pytest.approx(180.0 + slope * r + intercept)
+               for r in (math.floor(exact), math.ceil(exact)))
+
+
+def test_truth_led_centre_follows_the_path():
+    """Each frame's recorded centre is the rest centre plus the sinusoid's offset at the time the
+    row showing the centre sees it (mid-exposure of that row)."""
+    motion = {"mode": "sinusoid", "amplitude_x_px": 12.0, "amplitude_y_px": 30.0, "frequency_hz": 7.0}
+    pipeline = RenderPipeline(_motion_scene(motion))
+    cx, cy = pipeline.setup.led_centre_px
+    path = SinusoidPath((12.0, 30.0), 7.0, (0.0, math.pi / 2))
+    for k in range(3):
+        truth = pipeline.render(k).truth
+        x, y = truth["led_centre_px"]
+        row = round(y)
+        t = truth["start_s"] + row * 20e-6 + 30e-6
+        dx, dy = path.offset_px(np.array([t]))[0]
+        assert (x, y) == pytest.approx((cx + dx, cy + dy), abs=1e-9)
+        assert abs(row - (cy + dy)) <= 0.5 + 30.0 * 2 * math.pi * 7.0 * 20e-6
 
 
 def test_ambient_hides_the_background_behind_the_moved_led():
@@ -200,6 +237,19 @@ def test_handheld_path_is_its_seed_and_continuous():
     assert not np.array_equal(a, _handheld(seed=8).offset_px(t))
     # 0.1 ms steps: a 12 Hz tremor of 2 px rms moves well under 0.1 px.
     assert np.abs(np.diff(a, axis=0)).max() < 0.1
+
+
+@pytest.mark.parametrize("start_s", [0.0, 1.234, 3600.0 + 0.017, 1e4 + 0.3])
+def test_handheld_on_a_grid_is_the_path_at_those_times(start_s):
+    """A frame's rows at fixed times from its start: the tables of the grid's sines shared by every
+    frame give the path's own values, to 1e-9 px up to 10⁴ s (where t + τ itself rounds at 1e-12 s)."""
+    from rollsim.optics.motion import path_on_grid
+
+    path = _handheld(roll_tremor_rms_rad=1e-3, roll_drift_rms_rad=5e-3, lever_px=(300.0, -120.0))
+    tau = np.arange(1100) * 27.8e-6 + 50e-6
+    assert np.abs(path_on_grid(path, tau).offset_px(start_s) - path.offset_px(start_s + tau)).max() < 1e-9
+    walk = ReflectedWalkPath(3, (2.0, 2.0), (8.0, 8.0), 1 / 30)
+    assert np.array_equal(path_on_grid(walk, tau).offset_px(start_s), walk.offset_px(start_s + tau))
 
 
 def test_handheld_renders_paper_default_with_its_glare():

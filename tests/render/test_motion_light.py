@@ -62,6 +62,24 @@ def test_each_row_sees_its_own_offset():
         assert np.allclose(moved[y, 10:300], expected[10:300], atol=1e-12)
 
 
+@pytest.mark.parametrize("dx, dy", [(0.0, -100.0), (0.0, 37.5), (-45.25, 0.0), (60.0, -20.5)])
+def test_a_light_filling_the_frame_is_continued_past_every_edge_it_reaches(dx, dy):
+    """A halo that fills the frame, moved by far more than a pixel: every frame pixel still has light.
+    The rows and columns the shift brings in from past an edge repeat that edge's values; the rest is
+    the plain shift."""
+    rng = np.random.default_rng(4)
+    halo = Footprint(slice(0, SHAPE[0]), slice(0, SHAPE[1]), 0.5 + rng.random(SHAPE))
+    moved = moved_light(halo, np.tile([[dx, dy]], (SHAPE[0], 1)), SHAPE)
+    assert (moved.rows, moved.cols) == (slice(0, SHAPE[0]), slice(0, SHAPE[1]))
+    dense = moved.dense(SHAPE)
+    assert dense.min() >= 0.5
+    # Whole-pixel shifts: each output pixel is the rest pixel at its source, clipped to the frame.
+    if dx == int(dx) and dy == int(dy):
+        y, x = np.mgrid[0:SHAPE[0], 0:SHAPE[1]]
+        source = halo.coverage[np.clip(y - int(dy), 0, SHAPE[0] - 1), np.clip(x - int(dx), 0, SHAPE[1] - 1)]
+        assert np.array_equal(dense, source)
+
+
 def test_compiled_and_numpy_give_the_same_bits():
     light = _light(3)
     offsets = np.stack([np.linspace(-3.3, 9.1, SHAPE[0]), np.linspace(2.2, -5.7, SHAPE[0])], axis=1)
@@ -102,6 +120,9 @@ def test_a_still_offset_renders_the_led_moved_with_its_light(light_effect):
     first = rest[0] if rest[0] == 0 else min(rest[0] + int(dy), 479)
     assert tuple(truth["led_rows"]) == (first, min(rest[1] + int(dy), 479))
     assert np.abs(np.subtract(truth["led_rows"], placed_truth["led_rows"])).max() <= 1
+    # The truth records where the frame shows the LED's centre; a still scene's truth has no such key.
+    assert truth["led_centre_px"] == pytest.approx([cx + dx, cy + dy], abs=1e-6)
+    assert "led_centre_px" not in placed_truth
 
 
 def test_motion_with_glare_and_a_profile_renders_the_paper_scene():
