@@ -1020,7 +1020,7 @@ def _add_bench_commands(sub) -> None:
     _add_force(p)
 
     p = add("envelope", "where the decoder works: ok %% of fully visible PHY-SDUs, decoder against a genie-aided "
-            "receiver, along exposure, stripe SNR, blur, defocus, rows per chip, LED/background and saturation")
+            "receiver, along exposure, stripe SNR, blur, defocus, rows per chip, LED/background, saturation and hand shake")
     p.add_argument("--frames", type=_positive_int, default=None, help="frames per cell (default 16; quick 2)")
     p.add_argument("--maps", metavar="NAME,...", default=None,
                    help="maps to run (default all: exposure,snr,blur,defocus,rows_per_chip,contrast,saturation,shake)")
@@ -1044,6 +1044,18 @@ def _add_bench_commands(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     _add_json_file(p)
     _add_force(p)
+
+    p = add("profile", "where a user's wait goes: start-up, rollsim run's stages as a fresh process, and the "
+            "run profiled in this process by phase (set-up, kernels, workers, each part of the calibration, each plot)")
+    p.add_argument("scene", metavar="SCENE", nargs="?", default="paper-default",
+                   help="scene file or bundled scene name (default paper-default)")
+    _inputs(p, scenes=["scene"])
+    p.add_argument("--frames", type=_positive_int, default=None, help="frames of each run (default: the scene's)")
+    p.add_argument("--repeats", type=_positive_int, default=3, help="runs of each figure (default 3)")
+    p.add_argument("--workers", type=_workers, default=2, help="workers of the profiled run (default 2)")
+    p.add_argument("--out", metavar="DIR", default=None, help="write profile.md and profile.json here")
+    _add_force(p, "those files if present")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
 
     p = add("accuracy", "what accuracy costs: each fidelity setting against the most accurate one, in time, image "
             "error, noise distribution, decode outcomes and the MMBP fit; and each effect's cost")

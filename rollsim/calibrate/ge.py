@@ -80,39 +80,64 @@ def _safe_log(x):
         return np.log(x)
 
 
+class GeTrace:
+    """A 0/1 trace read for :func:`ge_loglik` once: its gaps between successes, counted by length.
+
+    A fit evaluates the likelihood thousands of times on one trace: the
+    trace's gaps, and every matrix power the likelihood needs (the opening
+    run, each distinct gap, the closing run) in one batch, are prepared once.
+    The values are those of evaluating each separately (each power is
+    computed on its own, whatever the batch holds).
+    """
+
+    def __init__(self, success):
+        success = np.asarray(success, dtype=bool)
+        gaps, self.opening, self.closing, self.none = _gaps(success)
+        self.lengths, self.counts = np.unique(gaps, return_counts=True) if gaps.size else (gaps, gaps)
+        # The exponents of (T D0) the likelihood needs, in one batch.
+        if self.none:
+            self.exponents = np.array([self.none - 1])
+        else:
+            head = [self.opening - 1] if self.opening > 0 else []
+            tail = [self.closing] if self.closing > 0 else []
+            self.exponents = np.concatenate([np.array(head, dtype=np.int64), self.lengths.astype(np.int64),
+                                             np.array(tail, dtype=np.int64)])
+        self._head = 1 if (not self.none and self.opening > 0) else 0
+
+    def loglik(self, p: float, q: float, p_e: float) -> float:
+        """Exact log-likelihood of the trace under Gilbert-Elliott (p, q, p_e)."""
+        T = np.array([[1 - q, q], [p, 1 - p]])
+        pi = np.array([p, q]) / (p + q)
+        D0 = np.array([p_e, 1.0])
+        A = T * D0[None, :]  # T D0: transition, then a failure
+        mats, logs = _log_matrix_powers(A, self.exponents)
+        if self.none:
+            # No success at all: π D0 (T D0)^(n-1) 1.
+            value = (pi * D0) @ mats[0] @ np.ones(2)
+            return float(_safe_log(value) + logs[0])
+        total = 0.0
+        # Opening: stationary start, `opening` failures, then a success in S1:
+        # π D0 (T D0)^(opening-1) T D1 with D1 = diag(1 - p_e, 0).
+        if self.opening == 0:
+            total += float(_safe_log(pi[0] * (1 - p_e)))
+        else:
+            v = (pi * D0) @ mats[0] @ T
+            total += float(_safe_log(v[0] * (1 - p_e)) + logs[0])
+        # Gaps between successes: g(L) = [(T D0)^L T]_11 (1 - p_e).
+        n_gaps = self.lengths.size
+        if n_gaps:
+            gap_mats, gap_logs = mats[self._head:self._head + n_gaps], logs[self._head:self._head + n_gaps]
+            g = (gap_mats @ T)[:, 0, 0] * (1 - p_e)
+            total += float(np.sum(self.counts * (_safe_log(g) + gap_logs)))
+        # Closing: from S1, `closing` more failures: e1 (T D0)^closing 1.
+        if self.closing > 0:
+            total += float(_safe_log(mats[-1][0].sum()) + logs[-1])
+        return total
+
+
 def ge_loglik(success, p: float, q: float, p_e: float) -> float:
-    """Exact log-likelihood of a 0/1 trace under Gilbert-Elliott (p, q, p_e)."""
-    success = np.asarray(success, dtype=bool)
-    T = np.array([[1 - q, q], [p, 1 - p]])
-    pi = np.array([p, q]) / (p + q)
-    D0 = np.array([p_e, 1.0])
-    A = T * D0[None, :]  # T D0: transition, then a failure
-    gaps, opening, closing, none = _gaps(success)
-    if none:
-        # No success at all: π D0 (T D0)^(n-1) 1.
-        mats, logs = _log_matrix_powers(A, np.array([none - 1]))
-        value = (pi * D0) @ mats[0] @ np.ones(2)
-        return float(_safe_log(value) + logs[0])
-    total = 0.0
-    # Opening: stationary start, `opening` failures, then a success in S1:
-    # π D0 (T D0)^(opening-1) T D1 with D1 = diag(1 - p_e, 0).
-    if opening == 0:
-        total += float(_safe_log(pi[0] * (1 - p_e)))
-    else:
-        mats, logs = _log_matrix_powers(A, np.array([opening - 1]))
-        v = (pi * D0) @ mats[0] @ T
-        total += float(_safe_log(v[0] * (1 - p_e)) + logs[0])
-    # Gaps between successes: g(L) = [(T D0)^L T]_11 (1 - p_e).
-    if gaps.size:
-        lengths, counts = np.unique(gaps, return_counts=True)
-        mats, logs = _log_matrix_powers(A, lengths)
-        g = (mats @ T)[:, 0, 0] * (1 - p_e)
-        total += float(np.sum(counts * (_safe_log(g) + logs)))
-    # Closing: from S1, `closing` more failures: e1 (T D0)^closing 1.
-    if closing > 0:
-        mats, logs = _log_matrix_powers(A, np.array([closing]))
-        total += float(_safe_log(mats[0][0].sum()) + logs[0])
-    return total
+    """Exact log-likelihood of a 0/1 trace under Gilbert-Elliott (p, q, p_e) (:class:`GeTrace`)."""
+    return GeTrace(success).loglik(p, q, p_e)
 
 
 def ge_method_of_moments(success) -> GeFit:
@@ -173,8 +198,10 @@ def fit_ge(success, start: GeFit | None = None) -> GeFit:
         p, q, p_e = (_EDGE, 1 - _EDGE, 1.0) if rate == 0 else (1 - _EDGE, _EDGE, 0.0)
         return GeFit(p, q, p_e, ge_loglik(success, p, q, p_e) if mom is None else mom.loglik, "maximum likelihood")
 
+    trace = GeTrace(success)
+
     def objective(z):
-        value = ge_loglik(success, *_to_unit(z))
+        value = trace.loglik(*_to_unit(z))
         return -value if np.isfinite(value) else 1e300
 
     starts = [(0.5, 0.5, 0.1), (0.1, 0.1, 0.01), (0.9, 0.1, 0.001), (0.3, 0.05, 0.05)]

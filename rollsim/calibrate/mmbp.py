@@ -43,7 +43,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.special import xlogy
-from scipy.stats import beta
 
 
 # Emissions each slot must hold for the cycle fit (see fit_mmbp_cycle).
@@ -105,6 +104,26 @@ class MmbpFit:
         }
 
 
+def beta_ppf(q: float, a: float, b: float) -> float:
+    """``scipy.stats.beta.ppf(q, a, b)`` for 0 < q < 1 and a, b > 0, without importing ``scipy.stats``.
+
+    ``beta.ppf`` evaluates SciPy's Boost ufunc ``scipy.special._ufuncs._beta_ppf``
+    once its arguments are checked; calling it gives the same numbers
+    (tests/calibrate/test_fits.py compares them) without the 0.4 s that
+    importing ``scipy.stats`` added to every command that calibrates.
+    (``scipy.special.betaincinv`` is another algorithm: it differs in the
+    last bit for some arguments.) A SciPy that keeps the ufunc elsewhere
+    gets ``scipy.stats.beta``.
+    """
+    try:
+        from scipy.special._ufuncs import _beta_ppf
+    except ImportError:  # pragma: no cover - SciPy moved its private ufunc
+        from scipy.stats import beta
+
+        return float(beta.ppf(q, a, b))
+    return float(_beta_ppf(q, a, b))
+
+
 def clopper_pearson(failures: int, trials: int, level: float = 0.95) -> tuple[float, float]:
     """Exact two-sided binomial interval of a proportion (0 and 1 handled exactly).
 
@@ -116,8 +135,8 @@ def clopper_pearson(failures: int, trials: int, level: float = 0.95) -> tuple[fl
     if trials <= 0:
         raise ValueError("trials must be >= 1")
     alpha = 1.0 - level
-    low = 0.0 if failures == 0 else float(beta.ppf(alpha / 2, failures, trials - failures + 1))
-    high = 1.0 if failures == trials else float(beta.ppf(1 - alpha / 2, failures + 1, trials - failures))
+    low = 0.0 if failures == 0 else beta_ppf(alpha / 2, failures, trials - failures + 1)
+    high = 1.0 if failures == trials else beta_ppf(1 - alpha / 2, failures + 1, trials - failures)
     return low, high
 
 

@@ -41,6 +41,39 @@ def _first_receptions(hits: np.ndarray, horizon: int, start: int, seq_of, n_pack
     return -1 if done == _NEVER else done
 
 
+# Elements of the (starts × emissions) table the replays are read from at once; beyond it,
+# the starts go in blocks (memory stays flat whatever the trace's length).
+_TABLE_ELEMENTS = 4_000_000
+
+
+def _first_receptions_all(x: np.ndarray, starts: np.ndarray, seq: np.ndarray, n_packets: int) -> np.ndarray:
+    """:func:`_first_receptions` for every start at once, over the first ``seq.size`` emissions.
+
+    Emission e of the replay from start w reads ``x[(w + e) mod len(x)]`` and carries packet
+    ``seq[e]``, the same for every start. Grouping the emissions by packet (a stable sort of
+    ``seq``), each packet's first reception is a minimum over its group (``reduceat``), and the
+    replay ends at the last packet's. Returns the emission index of that end per start, −1 where
+    some packet is not received within ``seq.size`` emissions.
+    """
+    horizon, emissions = x.size, seq.size
+    order = np.argsort(seq, kind="stable")
+    counts = np.bincount(seq, minlength=n_packets)
+    if np.any(counts == 0):  # a packet never sent within the window: no replay completes
+        return np.full(starts.size, -1, dtype=np.int64)
+    bounds = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    index = order.astype(np.int64)
+    block = max(1, _TABLE_ELEMENTS // max(1, emissions))
+    done = np.empty(starts.size, dtype=np.int64)
+    for lo in range(0, starts.size, block):
+        w = starts[lo:lo + block]
+        received = x[(w[:, None] + index[None, :]) % horizon]
+        # The emission index where received, past the window where not.
+        at = np.where(received, index[None, :], emissions)
+        last = np.minimum.reduceat(at, bounds, axis=1).max(axis=1)
+        done[lo:lo + block] = np.where(last >= emissions, -1, last)
+    return done
+
+
 def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_duration_s: float, max_starts: int = 500,
                        strategy: str = "rp", max_emissions: int = DEFAULT_MAX_EMISSIONS) -> dict:
     """Mean goodput of RP(r) (or RS(r)) replayed over the trace, read cyclically, from up to ``max_starts`` starts.
@@ -86,9 +119,9 @@ def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_d
     # Most replays end within a few rounds: try that first, then the full cap.
     short = min(max_emissions, 4 * r * n_packets + horizon)
     goodputs, lengths, capped = [], [], 0
-    for w in starts.tolist():
-        done = _first_receptions(hits, horizon, w, schedule.sequence_numbers, n_packets, short)
-        if done < 0 and short < max_emissions:
+    first_done = _first_receptions_all(x, starts, schedule.sequence_numbers(np.arange(short)), n_packets)
+    for w, done in zip(starts.tolist(), first_done.tolist()):
+        if done < 0 and short < max_emissions:  # rare: a replay longer than a few rounds
             done = _first_receptions(hits, horizon, w, schedule.sequence_numbers, n_packets, max_emissions)
         if done < 0:
             capped += 1

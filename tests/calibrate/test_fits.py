@@ -189,3 +189,17 @@ def test_p_e_text_never_states_a_bare_zero():
     assert "< 0.002991" in text and "one-sided" in text and "1000 PHY-SDUs" in text
     fit = {"p_e": 0.01, "p_e_ci95": [0.005, 0.02], "on_emissions": 1000, "on_failures": 10}
     assert p_e_text(fit) == "p_e = 0.01 (95 % CI 0.005 .. 0.02)"
+
+
+def test_beta_ppf_is_scipy_stats_beta_ppf_bit_for_bit():
+    from scipy.stats import beta
+
+    from rollsim.calibrate.mmbp import beta_ppf
+
+    rng = np.random.default_rng(0)
+    for trials in [1, 2, 3, 10, 57, *rng.integers(60, 100_000, 60).tolist()]:
+        for failures in {0, 1, trials // 3, trials - 1, *rng.integers(0, trials + 1, 4).tolist()}:
+            if failures > 0:
+                assert beta_ppf(0.025, failures, trials - failures + 1) == beta.ppf(0.025, failures, trials - failures + 1)
+            if failures < trials:
+                assert beta_ppf(0.975, failures + 1, trials - failures) == beta.ppf(0.975, failures + 1, trials - failures)

@@ -94,3 +94,23 @@ def test_a_trace_shorter_than_two_replays_has_no_interval():
     success[[10, 111]] = True
     replay = replay_goodput_bps(success, 1, 2, 19, 0.007, max_starts=150)
     assert replay["goodput_bps"] > 0 and replay["ci95"] is None
+
+
+@pytest.mark.parametrize("strategy, r, n_packets, p", [("rp", 1, 50, 0.8), ("rp", 3, 7, 0.3), ("rs", 2, 13, 0.6),
+                                                      ("rs", 1, 5, 0.05)])
+def test_all_starts_at_once_equal_each_start_alone(strategy, r, n_packets, p, monkeypatch):
+    """The table of every start (in blocks of starts: a small table forced here) ends each replay
+    at the same emission as the per-start search, or refuses it (−1) alike within the window."""
+    from rollsim.calibrate import replay
+
+    monkeypatch.setattr(replay, "_TABLE_ELEMENTS", 500)
+    rng = np.random.default_rng(n_packets)
+    success = rng.random(301) < p
+    schedule = Schedule(strategy, n_packets, r)
+    hits = np.flatnonzero(success)
+    starts = np.arange(success.size)
+    for window in (n_packets * r, 3 * n_packets * r + 17, 900):
+        table = replay._first_receptions_all(success, starts, schedule.sequence_numbers(np.arange(window)), n_packets)
+        alone = [replay._first_receptions(hits, success.size, w, schedule.sequence_numbers, n_packets, window)
+                 for w in starts.tolist()]
+        assert table.tolist() == alone
