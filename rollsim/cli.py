@@ -495,7 +495,7 @@ def cmd_run(args) -> int:
         if event == "start":
             if not args.quiet:
                 tqdm.write(f"[{STAGES.index(stage) + 1}/{len(STAGES)}] {stage}", file=sys.stderr)
-            if stage in ("render", "decode"):
+            if stage == "render and decode":
                 bars[stage] = tqdm(total=n_frames, unit="frame", desc=stage, disable=args.quiet or None, leave=False)
         elif stage in bars:
             bars.pop(stage).close()

@@ -94,3 +94,31 @@ def test_a_dark_scene_still_reports_what_the_decoder_saw(tmp_path, capsys):
     report = (out / "report.md").read_text()
     assert "## Calibration\n\nNot possible: " in report and str(out) in report and ".partial-" not in report
     assert not (out / "calibration.json").exists() and (out / "plots" / "sample_frame.png").is_file()
+
+
+def _decoded_again(run_dir: Path, tmp_path: Path, workers: str) -> Path:
+    """``rollsim decode`` of a copy of ``run_dir``: its PNGs read back."""
+    import shutil
+
+    copy = tmp_path / f"again-{workers}"
+    shutil.copytree(run_dir, copy)
+    assert main(["decode", str(copy), "--force", "--quiet", "--workers", workers]) == 0
+    return copy
+
+
+def test_the_runs_decode_in_the_render_workers_is_rollsim_decode_of_its_pngs(run_dir, tmp_path):
+    """The run decodes each frame as it is rendered, before its PNG is read back: the records (with the
+    render's identifier) and the summary are those ``rollsim decode`` writes from the PNGs."""
+    again = _decoded_again(run_dir, tmp_path, "2")
+    for name in ("decoded.jsonl", "decode.json"):
+        assert (again / name).read_bytes() == (run_dir / name).read_bytes(), name
+    assert (run_dir / "decoded.jsonl").read_text().count('"run":') > 0
+
+
+def test_an_rgb_run_decodes_what_its_pngs_hold(tmp_path):
+    """An RGB frame (Bayer, demosaiced): the PNG holds BGR on disk, read back as RGB, as rendered."""
+    out = tmp_path / "bayer"
+    assert main(["run", "effect-bayer", "--out", str(out), "--frames", "3", "--quiet", *FAST]) == 0
+    again = _decoded_again(out, tmp_path, "1")
+    assert (again / "decoded.jsonl").read_bytes() == (out / "decoded.jsonl").read_bytes()
+    assert json.loads((out / "decode.json").read_text())["sdus"] > 0

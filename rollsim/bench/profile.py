@@ -9,7 +9,7 @@ smallest and largest beside it (its spread):
   ``rollsim --version``, and ``rollsim describe SCENE`` (a user's quickest
   question);
 * **the run as a user meets it**: ``rollsim run SCENE`` as a fresh process,
-  its wall time and its own clock of the stages (render, decode, evaluate,
+  its wall time and its own clock of the stages (render and decode, evaluate,
   calibrate, report); what is left is start-up, the checks before the
   render and the output's move into place;
 * **inside the run**: :func:`rollsim.report.run.run_scene` in this process

@@ -110,22 +110,25 @@ def _init_worker(scene: Scene) -> None:
         _WORKER_PIPELINE = RenderPipeline(scene)
 
 
-def _render_chunk(indices: list[int], frames_dir: Path) -> list[dict]:
-    truths = []
+def _render_chunk(indices: list[int], frames_dir: Path, decode: Optional[Callable] = None) -> list[tuple]:
+    written = []
     assert _WORKER_PIPELINE is not None  # set by _init_worker in this process
     scene = _WORKER_PIPELINE.setup.scene
     for index in indices:
         frame = _WORKER_PIPELINE.render(index)
         png = encode_png(frame.image, frame_text(scene, frame.truth))
-        (frames_dir / FRAME_NAME.format(frame.index)).write_bytes(png)
-        truths.append(frame.truth)
-    return truths
+        path = frames_dir / FRAME_NAME.format(frame.index)
+        path.write_bytes(png)
+        written.append((frame.truth, None if decode is None else decode(frame.index, frame.image, str(path))))
+    return written
 
 
-def _written_frames(scene: Scene, n_frames: int, workers: int, frames_dir: Path) -> Iterator[dict]:
-    """Render and write every frame; yield the truth records in frame order."""
+def _written_frames(scene: Scene, n_frames: int, workers: int, frames_dir: Path,
+                    decode: Optional[Callable] = None) -> Iterator[tuple]:
+    """Render and write every frame; yield ``(truth record, what decode returned or None)`` in frame order."""
     chunks = chunked(range(n_frames), CHUNK_FRAMES)
-    yield from ordered_chunk_map(_render_chunk, chunks, workers, frames_dir, initializer=_init_worker, initargs=(scene,))
+    yield from ordered_chunk_map(_render_chunk, chunks, workers, frames_dir, decode, initializer=_init_worker,
+                                 initargs=(scene,))
 
 
 def render_to_dir(
@@ -187,11 +190,15 @@ def is_short_render(scene: Scene, n_frames: int) -> bool:
     return n_frames * scene.camera.width_px * scene.camera.height_px < SHORT_RENDER_PIXELS
 
 
-def render_into(scene: Scene, directory: Path, n_frames: int, workers: int, progress: Optional[Callable[[int], None]] = None) -> None:
+def render_into(scene: Scene, directory: Path, n_frames: int, workers: int, progress: Optional[Callable[[int], None]] = None,
+                decode: Optional[Callable] = None, on_decoded: Optional[Callable] = None) -> None:
     """Write the frames, truth and resolved scene into an existing, empty ``directory``.
 
     The building block of :func:`render_to_dir`, for callers (``rollsim
-    run``) that own the staged output directory themselves.
+    run``) that own the staged output directory themselves. With ``decode``
+    (picklable: ``decode(index, image, path) -> result``, run in the workers on
+    each frame as it is rendered), ``on_decoded(result)`` is called in frame
+    order in this process.
     """
     frames_dir = Path(directory) / "frames"
     frames_dir.mkdir()
@@ -200,7 +207,10 @@ def render_into(scene: Scene, directory: Path, n_frames: int, workers: int, prog
             open(Path(directory) / "truth.jsonl", "w", encoding="utf-8") as truth_file:
         _init_worker(scene)
         warm_up()  # workers fork with the pipeline built and the kernels loaded
-        for written, truth in enumerate(_written_frames(scene, n_frames, workers, frames_dir), start=1):
+        for written, (truth, decoded) in enumerate(_written_frames(scene, n_frames, workers, frames_dir, decode),
+                                                   start=1):
             truth_file.write(json.dumps(truth, separators=(",", ":")) + "\n")
+            if on_decoded is not None:
+                on_decoded(decoded)
             if progress is not None:
                 progress(written)

@@ -1,10 +1,13 @@
 """``rollsim run``: the whole loop on one scene.
 
-render → decode → evaluate → calibrate → report, into one output directory
-that appears only when every stage is done (:mod:`rollsim.plumbing.outputs`):
+render and decode → evaluate → calibrate → report, into one output
+directory that appears only when every stage is done
+(:mod:`rollsim.plumbing.outputs`):
 
-- ``frames/``, ``truth.jsonl``, ``scene.resolved.yaml`` (render)
-- ``decoded.jsonl``, ``decode.json`` (decode)
+- ``frames/``, ``truth.jsonl``, ``scene.resolved.yaml``, ``decoded.jsonl``,
+  ``decode.json`` (render and decode: each frame is decoded in the worker
+  that rendered it, from the image it has just written, the same records
+  ``rollsim decode`` reads from the PNG, without reading it back)
 - ``outcomes.csv``, ``evaluation.json`` (evaluate)
 - ``calibration.json`` (calibrate)
 - ``report.md`` and ``plots/*.png`` (report)
@@ -24,7 +27,7 @@ from rollsim.plumbing.outputs import staged_directory
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
 
-STAGES = ("render", "decode", "evaluate", "calibrate", "report")
+STAGES = ("render and decode", "evaluate", "calibrate", "report")
 
 
 @dataclass(frozen=True)
@@ -117,7 +120,9 @@ def run_scene(
         an OS failure while writing; ``out_dir`` is then left as it was.
     """
     from rollsim.calibrate import calibrate, load_trace
-    from rollsim.stages.decode import decode_directory, settings_from_scene
+    from rollsim.stages.decode import (DECODED_NAME, SUMMARY_NAME, DecodedRecords, DecodeSummary, FrameDecoder,
+                                       settings_from_scene, summary_text)
+    from rollsim.stages.records import scene_run_identifier
     from rollsim.stages.evaluate import evaluate_directory
     from rollsim.render import RenderPipeline
     from rollsim.render.pipeline import check_render_memory
@@ -134,11 +139,16 @@ def run_scene(
     def progress(stage):
         return None if on_frame is None else (lambda done: on_frame(stage, done))
 
+    settings = settings_from_scene(scene)
+    decode = FrameDecoder(settings, scene_run_identifier(scene))
     with staged_directory(Path(out_dir), force, inputs) as staging:
-        clock.run("render", lambda: render_into(scene, staging, n_frames, workers, progress("render")))
-        settings = settings_from_scene(scene)
-        clock.run("decode", lambda: decode_directory(staging, settings, workers=workers, on_error=on_skipped,
-                                                     progress=progress("decode")))
+        summary = DecodeSummary(settings, frames=n_frames)
+        with open(staging / DECODED_NAME, "w", encoding="utf-8") as decoded:
+            written = DecodedRecords(decoded, summary, staging, on_skipped)
+            clock.run("render and decode", lambda: render_into(scene, staging, n_frames, workers,
+                                                               progress("render and decode"), decode=decode,
+                                                               on_decoded=lambda result: written.add(*result)))
+        (staging / SUMMARY_NAME).write_text(summary_text(summary), encoding="utf-8")
         evaluation = clock.run("evaluate", lambda: evaluate_directory(staging))
         reason: Optional[str] = None
         try:

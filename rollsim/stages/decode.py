@@ -454,6 +454,76 @@ def _relative_error(error: dict, run_dir: Path) -> dict:
     return {**error, "source": relative, "error": error["error"].replace(source, relative, 1)}
 
 
+@dataclass(frozen=True)
+class FrameDecoder:
+    """rollsim's decoder on a frame in memory, with the records :func:`decode_directory` writes for it.
+
+    The frame a render has just made is the array its PNG holds (PNG is
+    lossless, and :func:`decoder.read_frame` gives back the rendered array),
+    so decoding it before the PNG is read back gives the same records, and
+    saves reading the file (``rollsim run`` decodes in the render's workers).
+    Picklable: the workers receive it.
+
+    Parameters
+    ----------
+    settings : DecodeSettings
+        rollsim's decoder's settings (``settings.decoder`` must be None).
+    run : str, optional
+        The render's identifier, written into every record
+        (:func:`rollsim.stages.records.scene_run_identifier`).
+    """
+
+    settings: DecodeSettings
+    run: Optional[str] = None
+
+    def __call__(self, index: int, image, source: str) -> tuple[list[dict], Optional[dict]]:
+        """Records of frame ``index`` and its error record (None when it was read); ``source`` names it."""
+        from decoder import decode_frames
+
+        settings = self.settings
+        result = next(decode_frames([image], settings.phy, settings.clock_hz, settings.row_time_s, first_frame=index,
+                                    exposure_s=settings.exposure_s))
+        provenance = {} if self.run is None else {"run": self.run}
+        error = result.error_record()
+        return [{**r, **provenance} for r in result.to_records()], None if error is None else {**error, "source": source}
+
+
+class DecodedRecords:
+    """``decoded.jsonl`` written frame by frame, in frame order, and the summary ``decode.json`` holds.
+
+    Parameters
+    ----------
+    out : text file
+        ``decoded.jsonl``, open for writing.
+    summary : DecodeSummary
+        Counted into as frames are added.
+    run_dir : Path
+        Error records name their file relative to it.
+    on_error : callable, optional
+        Called with the error record of each unreadable frame.
+    """
+
+    def __init__(self, out, summary: DecodeSummary, run_dir: Path, on_error: Optional[Callable[[dict], None]] = None):
+        self.out, self.summary, self.run_dir, self.on_error = out, summary, Path(run_dir), on_error
+
+    def add(self, records: list[dict], error: Optional[dict]) -> None:
+        """One frame's records (written) and its error record (counted, reported), or None."""
+        for record in records:
+            self.out.write(json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n")
+        self.summary.sdus += len(records)
+        self.summary.sdus_ok += sum(1 for r in records if r["check_ok"])
+        if error is not None:
+            error = _relative_error(error, self.run_dir)
+            self.summary.unreadable.append(error)
+            if self.on_error is not None:
+                self.on_error(error)
+
+
+def summary_text(summary: DecodeSummary) -> str:
+    """``decode.json``'s text."""
+    return json.dumps(summary.as_dict(), indent=2, allow_nan=False) + "\n"
+
+
 def decode_directory(
     run_dir: Path,
     settings: DecodeSettings,
@@ -509,18 +579,11 @@ def decode_directory(
     summary = DecodeSummary(settings, frames=len(files))
     with staged_files(targets, force) as staged:
         with staged.open(targets[0]) as out:
+            written = DecodedRecords(out, summary, run_dir, on_error)
             for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers, run), start=1):
-                for record in records:
-                    out.write(json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n")
-                summary.sdus += len(records)
-                summary.sdus_ok += sum(1 for r in records if r["check_ok"])
-                if error is not None:
-                    error = _relative_error(error, run_dir)
-                    summary.unreadable.append(error)
-                    if on_error is not None:
-                        on_error(error)
+                written.add(records, error)
                 if progress is not None:
                     progress(done)
-        staged.write(targets[1], json.dumps(summary.as_dict(), indent=2, allow_nan=False) + "\n")
+        staged.write(targets[1], summary_text(summary))
     return summary
 
