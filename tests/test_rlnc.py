@@ -119,3 +119,18 @@ def test_the_full_rank_distribution_equals_simulation(k):
         assert abs(observed - pmf[n]) < 3.3 * sigma + 1e-12, (n, observed, pmf[n])
     mean_sigma = float(np.std(found)) / math.sqrt(runs)
     assert abs(found.mean() - expected_receptions_to_full_rank(k)) < 3.3 * mean_sigma
+
+
+@pytest.mark.parametrize("n, m, k, density, seed", [(30, 422 + 19, 422, 0.5, 0), (500, 150, 120, 0.02, 1),
+                                                     (64, 64, 64, 0.5, 2), (10, 200, 190, 0.3, 3), (1, 5, 5, 1.0, 4)])
+def test_compiled_and_numpy_elimination_give_the_same_words(n, m, k, density, seed):
+    """The compiled kernel makes the numpy twin's choices: the same reduced words and rank."""
+    from rollsim.numerics.jit import numpy_only
+    from rollsim.protocol.gf2 import _reduce
+
+    bits = np.random.default_rng(seed).random((n, m)) < density
+    compiled_words, compiled_rank = _reduce(pack_rows(bits), k)
+    with numpy_only():
+        plain_words, plain_rank = _reduce(pack_rows(bits), k)
+    assert compiled_rank == plain_rank
+    np.testing.assert_array_equal(compiled_words, plain_words)

@@ -4,9 +4,13 @@ A receiver of a random linear code over GF(2) holds one row per coded
 PHY-SDU received: the K coefficients of its combination, then its payload
 bits. The message is recovered when the coefficient rows reach rank K, by
 Gauss-Jordan elimination of the augmented matrix. Rows are packed into
-64-bit words (:func:`pack_rows`) so that one XOR updates 64 columns; the
-elimination loops over the K pivot columns, each step vectorised over the
-rows.
+64-bit words (:func:`pack_rows`) so that one XOR updates 64 columns. The
+elimination is a compiled kernel (:mod:`rollsim.numerics.jit`): a 1 kB
+message has K = 422 pivot columns, and a loop over them in Python, each
+step vectorised over the rows, took 10 ms an elimination (the event
+simulator's rlnc runs need a dozen each). Its numpy twin makes the same
+choices (the first row holding the pivot, the same row XORs), so the two
+give the same words.
 """
 
 from __future__ import annotations
@@ -14,6 +18,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from rollsim.numerics.jit import kernel
 
 WORD_BITS = 64
 
@@ -85,6 +91,45 @@ def _reduce(words: np.ndarray, k: int) -> tuple[np.ndarray, int]:
     Returns the rows (the first ``rank`` of them the reduced pivot rows, in
     column order) and the rank.
     """
+    compiled = _reduce_words.compiled
+    if compiled is not None:
+        return words, int(compiled(words, k))
+    return _reduce_numpy(words, k)
+
+
+@kernel
+def _reduce_words(words, k):  # pragma: no cover - compiled by numba
+    n, width = words.shape
+    one = np.uint64(1)
+    rank = 0
+    for column in range(k):
+        if rank == n:
+            break
+        word = column // 64
+        shift = np.uint64(column % 64)
+        pivot = -1
+        for r in range(rank, n):
+            if (words[r, word] >> shift) & one:
+                pivot = r
+                break
+        if pivot < 0:
+            continue
+        if pivot != rank:
+            for j in range(width):
+                held = words[rank, j]
+                words[rank, j] = words[pivot, j]
+                words[pivot, j] = held
+        # Clear this column in every other row.
+        for r in range(n):
+            if r != rank and (words[r, word] >> shift) & one:
+                for j in range(width):
+                    words[r, j] ^= words[rank, j]
+        rank += 1
+    return rank
+
+
+def _reduce_numpy(words: np.ndarray, k: int) -> tuple[np.ndarray, int]:
+    """:data:`_reduce_words` in numpy: the same pivots and row operations, each step vectorised over the rows."""
     rank = 0
     for column in range(k):
         if rank == words.shape[0]:
