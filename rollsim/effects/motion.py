@@ -74,7 +74,7 @@ def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     light = None if setup.led_light is None else RestLight.of(setup.led_light, setup.shape)
 
     # Each row sees the LED at its mid-exposure, at fixed times from the frame's start.
-    grid = path_on_grid(path, (rows - rows % timing.binning_rows) * timing.row_time_s + 0.5 * timing.exposure_s)
+    grid = path_on_grid(path, (rows - rows % timing.binning_rows) * timing.row_time_s, 0.5 * timing.exposure_s)
 
     def run(state: FrameState) -> None:
         # One evaluation of the path per frame serves the footprint and the moved light.

@@ -231,19 +231,27 @@ class HandheldGrid:
 
 @dataclass(frozen=True)
 class ShiftedGrid:
-    """Any path at ``start + offsets_s``: its ``offset_px`` there (no tables to share)."""
+    """Any path at ``start + row_s + later_s``: its ``offset_px`` there (no tables to share).
+
+    The times are summed in that order, as a frame's rows' mid-exposures
+    always were (start, then the row's offset, then half the exposure), so a
+    path's values keep their last bits.
+    """
 
     path: object
-    offsets_s: np.ndarray
+    row_s: np.ndarray
+    later_s: float
 
     def offset_px(self, start_s: float) -> np.ndarray:
-        return self.path.offset_px(start_s + self.offsets_s)  # type: ignore[attr-defined]
+        return self.path.offset_px(start_s + self.row_s + self.later_s)  # type: ignore[attr-defined]
 
 
-def path_on_grid(path, offsets_s):
-    """``path`` on times ``start + offsets_s``: an object whose ``offset_px(start_s)`` gives (n, 2) px."""
+def path_on_grid(path, row_s, later_s: float = 0.0):
+    """``path`` at times ``start + row_s + later_s`` for any start: an object whose ``offset_px(start_s)``
+    gives (n, 2) px (:class:`HandheldGrid` for a hand's path, :class:`ShiftedGrid` otherwise)."""
+    row_s = np.asarray(row_s, dtype=np.float64)
     on_grid = getattr(path, "on_grid", None)
-    return on_grid(offsets_s) if on_grid is not None else ShiftedGrid(path, np.asarray(offsets_s, dtype=np.float64))
+    return on_grid(row_s + later_s) if on_grid is not None else ShiftedGrid(path, row_s, float(later_s))
 
 
 def path_from_params(params, seed: int, frame_period_s: float, px_per_rad: float = 0.0, lever_px=(0.0, 0.0)):

@@ -476,6 +476,11 @@ class FrameDecoder:
     settings: DecodeSettings
     run: Optional[str] = None
 
+    def __post_init__(self) -> None:
+        if self.settings.decoder is not None:
+            raise ValueError("FrameDecoder runs rollsim's decoder; a decoder of one's own goes through "
+                             "decode_directory (its deadline and checks)")
+
     def __call__(self, index: int, image, source: str) -> tuple[list[dict], Optional[dict]]:
         """Records of frame ``index`` and its error record (None when it was read); ``source`` names it."""
         from decoder import decode_frames

@@ -249,7 +249,9 @@ def test_handheld_on_a_grid_is_the_path_at_those_times(start_s):
     tau = np.arange(1100) * 27.8e-6 + 50e-6
     assert np.abs(path_on_grid(path, tau).offset_px(start_s) - path.offset_px(start_s + tau)).max() < 1e-9
     walk = ReflectedWalkPath(3, (2.0, 2.0), (8.0, 8.0), 1 / 30)
-    assert np.array_equal(path_on_grid(walk, tau).offset_px(start_s), walk.offset_px(start_s + tau))
+    rows_s = np.arange(1100) * 27.8e-6
+    # Other paths: the times summed as a frame's rows' always were, start + row + half the exposure.
+    assert np.array_equal(path_on_grid(walk, rows_s, 50e-6).offset_px(start_s), walk.offset_px(start_s + rows_s + 50e-6))
 
 
 def test_handheld_renders_paper_default_with_its_glare():
