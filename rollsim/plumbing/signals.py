@@ -10,6 +10,14 @@ hangs (a scheduler that never answers, a network file system) never makes
 SIGKILL the only way out. What it leaves (a staging area) carries its
 owner's process id, so the next run into the same place removes it.
 
+Python runs a signal's handler between two bytecodes of the main thread,
+which may be inside a weak reference's callback or a ``__del__`` that the
+garbage collector runs: an exception raised there cannot propagate, and
+Python drops it with an "Exception ignored" traceback. The command's
+:func:`sys.unraisablehook` catches such an :class:`Interrupted` and sends
+the signal again from a helper thread, so that it is raised where it
+unwinds the command, with no traceback.
+
 Worker processes leave both signals to the main process (a terminal's
 Ctrl-C reaches the whole process group) and die with it, even when it is
 killed with SIGKILL, through Linux's parent-death signal.
@@ -23,6 +31,7 @@ import os
 import signal
 import sys
 import threading
+import time
 
 from rollsim.errors import Interrupted
 
@@ -46,8 +55,40 @@ def _raise_interrupted(signum, frame):
     raise Interrupted(signum)
 
 
+# How long the helper thread waits before sending a dropped signal again: long
+# enough for the hook to return (a signal handled inside the hook would be
+# dropped there too), short beside any clean-up.
+REDELIVER_DELAY_S = 0.05
+
+
+def _redeliver(signum: int) -> None:
+    time.sleep(REDELIVER_DELAY_S)
+    os.kill(os.getpid(), signum)
+
+
+def _unraisable_hook(previous):
+    """A :data:`sys.unraisablehook` that sends a dropped :class:`Interrupted`'s signal again (see the module)."""
+
+    def hook(unraisable) -> None:
+        exc = unraisable.exc_value
+        if not isinstance(exc, Interrupted):
+            previous(unraisable)
+            return
+        # Raised inside a callback that cannot propagate it: the command must still stop, cleaning up,
+        # so the first signal's handler is put back and the signal sent again, after the callback (sent
+        # while it still runs, it is dropped again and comes back here, until it lands outside).
+        for sig in HANDLED:
+            signal.signal(sig, _raise_interrupted)
+        threading.Thread(target=_redeliver, args=(exc.signum,), daemon=True).start()
+
+    return hook
+
+
 def install_handlers() -> dict:
     """Make SIGINT and SIGTERM raise :class:`Interrupted` in the main thread.
+
+    Also installs the :data:`sys.unraisablehook` that re-sends a signal
+    whose exception Python had to drop (see the module).
 
     Returns
     -------
@@ -57,7 +98,9 @@ def install_handlers() -> dict:
     """
     if threading.current_thread() is not threading.main_thread():
         return {}
-    saved = {sig: signal.getsignal(sig) for sig in HANDLED}
+    saved: dict = {sig: signal.getsignal(sig) for sig in HANDLED}
+    saved["unraisablehook"] = sys.unraisablehook
+    sys.unraisablehook = _unraisable_hook(sys.unraisablehook)
     for sig in HANDLED:
         signal.signal(sig, _raise_interrupted)
     return saved
@@ -66,7 +109,9 @@ def install_handlers() -> dict:
 def restore_handlers(saved: dict) -> None:
     """Put back the handlers :func:`install_handlers` replaced."""
     for sig, handler in saved.items():
-        if handler is not None:
+        if sig == "unraisablehook":
+            sys.unraisablehook = handler
+        elif handler is not None:
             signal.signal(sig, handler)
 
 
