@@ -446,24 +446,15 @@ def plot_map(m: EnvelopeMap, rows: list[dict], bounds: list[dict], target) -> No
     A series map draws one colour per curve, the decoder solid and the genie
     dotted, without bands or boundaries (they would hide the curves).
     """
-    from matplotlib import colormaps
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(6.4, 4.4))
     fig.subplots_adjust(left=0.12, right=0.97, bottom=0.12, top=0.84)
     ax = fig.subplots()
-    curves = curves_of(m, rows)
     if m.series is None:
         _plot_single(ax, m, rows, bounds[0])
     else:
-        palette = colormaps["viridis"]
-        for k, (value, curve_rows) in enumerate(curves):
-            colour = palette(k / max(1, len(curves) - 1) * 0.9)
-            for (prefix, label, _c), style in zip(RECEIVERS, ("o-", "s:")):
-                x, y, _low, _high = _curve(curve_rows, m, prefix)
-                order = sorted(range(len(x)), key=x.__getitem__)
-                ax.plot([x[i] for i in order], [100 * y[i] for i in order], style, color=colour, markersize=3,
-                        label=f"{m.series_label.format(value)}, {label}")
+        _plot_series(ax, m, rows)
     ax.axhline(100 * OK_LEVEL, color="grey", linestyle=":", linewidth=1)
     if m.log_x:
         ax.set_xscale("log")
@@ -482,6 +473,21 @@ def plot_map(m: EnvelopeMap, rows: list[dict], bounds: list[dict], target) -> No
     else:
         ax.legend(loc="best", fontsize=6, ncol=2)
     fig.savefig(target, dpi=100, format="png", metadata={"Software": None})
+
+
+def _plot_series(ax, m: EnvelopeMap, rows: list[dict]) -> None:
+    """One colour per curve of a series map, each receiver's ok % in its own line style."""
+    from matplotlib import colormaps
+
+    palette = colormaps["viridis"]
+    curves = curves_of(m, rows)
+    for k, (value, curve_rows) in enumerate(curves):
+        colour = palette(k / max(1, len(curves) - 1) * 0.9)
+        for (prefix, label, _c), style in zip(RECEIVERS, ("o-", "s:")):
+            x, y, _low, _high = _curve(curve_rows, m, prefix)
+            order = sorted(range(len(x)), key=x.__getitem__)
+            ax.plot([x[i] for i in order], [100 * y[i] for i in order], style, color=colour, markersize=3,
+                    label=f"{m.series_label.format(value)}, {label}")
 
 
 def _plot_single(ax, m: EnvelopeMap, rows: list[dict], bounds: dict) -> None:

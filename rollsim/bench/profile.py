@@ -86,7 +86,7 @@ def stage_seconds(stdout: str) -> dict[str, float]:
         return {}
     stages = {}
     for part in match.group(1).split(", "):
-        name, value = part.rsplit(" ", 2)[0], part.rsplit(" ", 2)[1]
+        name, value, _unit = part.rsplit(" ", 2)
         stages[name] = float(value)
     return stages
 

@@ -118,16 +118,17 @@ def replay_goodput_bps(success, r: int, n_packets: int, payload_bits: int, sdu_d
     starts = np.unique(np.linspace(0, horizon - 1, max_starts).astype(np.int64))
     # Most replays end within a few rounds: every start is read over that window at once, the
     # starts not done over a window one trace longer, and the rest one by one up to the cap.
+    few_rounds = 4 * r * n_packets
+    windows = sorted({min(max_emissions, few_rounds), min(max_emissions, few_rounds + horizon)})
     first_done = np.full(starts.size, -1, dtype=np.int64)
-    for window in sorted({min(max_emissions, 4 * r * n_packets), min(max_emissions, 4 * r * n_packets + horizon)}):
+    for window in windows:
         pending = np.flatnonzero(first_done < 0)
         if pending.size:
             first_done[pending] = _first_receptions_all(x, starts[pending], schedule.sequence_numbers(np.arange(window)),
                                                         n_packets)
-    longest = min(max_emissions, 4 * r * n_packets + horizon)
     goodputs, lengths, capped = [], [], 0
     for w, done in zip(starts.tolist(), first_done.tolist()):
-        if done < 0 and longest < max_emissions:  # rare: a replay longer than a few rounds and a trace
+        if done < 0 and windows[-1] < max_emissions:  # rare: a replay longer than a few rounds and a trace
             done = _first_receptions(hits, horizon, w, schedule.sequence_numbers, n_packets, max_emissions)
         if done < 0:
             capped += 1

@@ -55,8 +55,8 @@ class Motion(EffectParams):
 def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     scene, timing = setup.scene, setup.timing
     cam = scene.camera
-    centre_x, centre_y = setup.led_centre_px
-    lever = (centre_x - 0.5 * cam.width_px, centre_y - 0.5 * cam.height_px)
+    cx, cy = setup.led_centre_px
+    lever = (cx - 0.5 * cam.width_px, cy - 0.5 * cam.height_px)
     path = path_from_params(params, scene.seed, timing.frame_period_s,
                             px_per_rad=cam.focal_length_mm * 1e-3 / (cam.pixel_pitch_um * 1e-6), lever_px=lever)
     # With a lens PSF the frame's footprint is computed on a canvas extended
@@ -68,7 +68,6 @@ def build_stage(setup: SceneSetup, params: Motion) -> StageRun:
     kernels = list(setup.lens_kernels)
     ry, rx = total_radius(kernels)
     height, width = setup.shape
-    cx, cy = setup.led_centre_px
     rows = np.arange(-ry, height + ry)
     # The rest position's light, where led_profile or glare shape it, padded once for every frame.
     light = None if setup.led_light is None else RestLight.of(setup.led_light, setup.shape)

@@ -389,12 +389,8 @@ class RestLight:
             return Footprint(self.rows, self.cols, self.padded[1:-1, 1:-1])
         r0, c0 = self.rows.start, self.cols.start
         dx, dy = row_offsets_px[:, 0], row_offsets_px[:, 1]
-        # The output box: the light's box widened by the largest shift, within the frame; a box that
-        # reaches an edge of the frame keeps reaching it (the light is continued past that edge).
-        rows = slice(0 if r0 == 0 else max(0, int(np.floor(r0 + dy.min())) - 1),
-                     height if self.rows.stop == height else min(height, int(np.ceil(self.rows.stop + dy.max())) + 1))
-        cols = slice(0 if c0 == 0 else max(0, int(np.floor(c0 + dx.min())) - 1),
-                     width if self.cols.stop == width else min(width, int(np.ceil(self.cols.stop + dx.max())) + 1))
+        rows = _moved_span(self.rows, height, dy)
+        cols = _moved_span(self.cols, width, dx)
         if rows.stop <= rows.start or cols.stop <= cols.start:
             return Footprint(slice(0, 0), slice(0, 0), np.zeros((0, 0)))
         y = np.arange(rows.start, rows.stop)
@@ -414,6 +410,13 @@ class RestLight:
         else:
             _bilinear_rows_numpy(self.padded, i0, a, k, b, first_col, out)
         return Footprint(rows, cols, out)
+
+
+def _moved_span(span: slice, size: int, shift_px: np.ndarray) -> slice:
+    """The light's span along one axis widened by its largest shifts, within 0 … ``size``; a span that
+    reaches an edge of the frame keeps reaching it (the light is continued past that edge)."""
+    return slice(0 if span.start == 0 else max(0, int(np.floor(span.start + shift_px.min())) - 1),
+                 size if span.stop == size else min(size, int(np.ceil(span.stop + shift_px.max())) + 1))
 
 
 def _bilinear_rows_numpy(padded, i0, a, k, b, first_col, out) -> None:

@@ -39,23 +39,25 @@ def _save(fig, path: Path) -> Path:
 SAMPLE_FRAME_WIDTH_PX = 800
 
 
-def display_image(image: np.ndarray, max_width_px: int = SAMPLE_FRAME_WIDTH_PX) -> np.ndarray:
-    """``image`` reduced by block means to at most ``max_width_px`` columns, in its own dtype.
+def display_image(image: np.ndarray, max_width_px: int = SAMPLE_FRAME_WIDTH_PX) -> tuple[np.ndarray, int]:
+    """``image`` reduced by block means to at most ``max_width_px`` columns, in its own dtype, and the factor k.
 
     A figure shows a 1080p frame on fewer pixels than it has: matplotlib's
     resampling of the whole frame at draw time cost about a second a plot;
     a block mean by the smallest integer factor k that fits is what the
     plot can show (the last rows and columns that do not fill a block are
-    left out). k = 1 returns ``image`` itself.
+    left out: the reduced image covers k times its own shape). k = 1
+    returns ``image`` itself.
     """
     height, width = image.shape[:2]
     k = -(-width // max_width_px)
     if k <= 1:
-        return image
+        return image, 1
     h, w = height // k, width // k
     blocks = image[:h * k, :w * k].reshape(h, k, w, k, *image.shape[2:])
     reduced = blocks.mean(axis=(1, 3))
-    return np.rint(reduced).astype(image.dtype) if np.issubdtype(image.dtype, np.integer) else reduced.astype(image.dtype)
+    shown = np.rint(reduced).astype(image.dtype) if np.issubdtype(image.dtype, np.integer) else reduced.astype(image.dtype)
+    return shown, k
 
 
 def plot_sample_frame(image: np.ndarray, views, frame: int, path: Path) -> Path:
@@ -75,10 +77,13 @@ def plot_sample_frame(image: np.ndarray, views, frame: int, path: Path) -> Path:
     height, width = image.shape[:2]
     fig, axes = _figure(8.0, 8.0 * height / width + 0.6)
     ax = axes[0, 0]
-    # Shown reduced to the plot's resolution, on the frame's own row and column coordinates.
-    shown = display_image(image)
+    # Shown reduced to the plot's resolution, on the frame's own row and column coordinates (the
+    # blocks it holds span k times its shape; a remainder of fewer than k rows or columns is left out).
+    shown, k = display_image(image)
     ax.imshow(shown, cmap="gray" if image.ndim == 2 else None, interpolation="nearest",
-              extent=(-0.5, width - 0.5, height - 0.5, -0.5))
+              extent=(-0.5, k * shown.shape[1] - 0.5, k * shown.shape[0] - 0.5, -0.5))
+    ax.set_xlim(-0.5, width - 0.5)
+    ax.set_ylim(height - 0.5, -0.5)
     for view in views:
         cols = view.cols
         ax.add_patch(Rectangle((cols.start, view.rows.start), cols.stop - cols.start, view.rows.stop - view.rows.start,
