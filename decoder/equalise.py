@@ -47,6 +47,7 @@ from scipy.ndimage import maximum_filter1d, uniform_filter1d
 from rollsim.protocol import PhyFormat
 from rollsim.protocol.linecode import encode
 
+from decoder.kernels import viterbi_f64
 from decoder.order_stats import percentiles
 from decoder.timing import ChipStream
 
@@ -239,6 +240,13 @@ def viterbi(metrics: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     cost : ndarray of float64, shape (G,)
         Its total metric.
     """
+    # A loop over the chips: compiled where numba is, numpy's twin otherwise.
+    compiled = viterbi_f64(np.ascontiguousarray(metrics, dtype=np.float64))
+    return compiled if compiled is not None else _viterbi_numpy(metrics)
+
+
+def _viterbi_numpy(metrics: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`viterbi` in numpy, one step per chip for all grids at once."""
     n_grids, n_chips, n_combos = metrics.shape
     n_states = n_combos // 2
     combos = np.arange(n_combos)

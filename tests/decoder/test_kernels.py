@@ -88,3 +88,18 @@ def test_noise_power_is_numpys(monkeypatch, shape, lag):
     assert compiled.dtype == twin.dtype == np.float32
     assert np.array_equal(compiled, twin)
 
+
+
+@pytest.mark.parametrize("memory", [1, 2, 3, 5])
+def test_compiled_viterbi_is_numpys_to_the_bit(memory):
+    from decoder.equalise import _viterbi_numpy, viterbi
+
+    rng = np.random.default_rng(memory)
+    # Random metrics, and small integers, whose sums tie often (ties keep the first state).
+    for metrics in (rng.random((5, 61, 2**memory)) * 1e3, rng.integers(0, 3, (3, 40, 2**memory)).astype(np.float64),
+                    np.zeros((2, 9, 2**memory))):
+        chips, cost = viterbi(metrics)
+        twin_chips, twin_cost = _viterbi_numpy(metrics)
+        assert chips.dtype == twin_chips.dtype == np.int8
+        assert np.array_equal(chips, twin_chips)
+        assert np.array_equal(cost, twin_cost)
