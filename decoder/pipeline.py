@@ -715,13 +715,14 @@ def inspect_frame(
     views = []
     for index, (cols, profile, pitch, weighted, found, found_weighted) in enumerate(_region_profiles(
             image, phy, clock_hz, row_time_s, block_px, max_regions, options["exposure_rows"])):
+        # The stripe rows are measured on the rows the region tests found:
+        # rows read beyond them for a PHY-SDU's ends change the profile's
+        # local levels near its ends, not where the LED's stripes show. (The
+        # measuring detection adds rows to the span only, never a PHY-SDU,
+        # so it runs on the found rows alone.)
         sdus, levels, seen = _decode_profile_levels(profile, phy, pitch, region=index, weighted=weighted,
-                                                    measure_span=True, **options)
+                                                    measure_span=found is profile, **options)
         if found is not profile:
-            # The stripe rows are measured on the rows the region tests
-            # found: rows read beyond them for a PHY-SDU's ends change the
-            # profile's local levels near its ends, not where the LED's
-            # stripes show.
             seen = _decode_profile_levels(found, phy, pitch, region=index, weighted=found_weighted,
                                           measure_span=True, **options)[2]
         rows = slice(profile.first_row, profile.first_row + len(profile))
