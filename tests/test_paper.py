@@ -141,3 +141,54 @@ def test_the_mmbp_cycle_note_matches_a_direct_count_of_the_cycle():
     assert f"completes in {np.mean(emissions) / n:.2f} rounds" in note
     scene = load(_log(5, 1))
     assert scene.link.header_bits == 9
+
+
+def _paper_scenes():
+    wanted = sorted({key for _, key in claims()})
+    return {key: load(settings()[key].overrides) for key in wanted}
+
+
+@pytest.mark.parametrize("quick", [True, False])
+def test_settings_that_resolve_to_one_scene_share_its_computations(quick):
+    from rollsim.paper import PaperOptions, cluster_tasks
+    from rollsim.scene import scene_to_yaml
+
+    scenes = _paper_scenes()
+    tasks = cluster_tasks(PaperOptions.make(quick=quick), scenes)
+    served = [(key, task.layer) for task in tasks for key in task.keys]
+    # Every claimed setting gets its event figures once, and no task is run twice.
+    assert len(served) == len(set(served))
+    assert {key for key, layer in served if layer == "event"} == set(scenes)
+    by_layer: dict[str, list] = {}
+    for task in tasks:
+        texts = {scene_to_yaml(scenes[key]) for key in task.keys}
+        assert len(texts) == 1, task.keys  # only one scene behind a shared task
+        by_layer.setdefault(task.layer, []).append(texts.pop())
+    for layer, texts in by_layer.items():
+        assert len(texts) == len(set(texts)), layer  # and each scene once per layer
+    # The 1 kB message at 5 cm with one repeat is Fig. 15's setting and Fig. 18's.
+    assert any({"g1000", "log_d5_r1"} <= set(task.keys) for task in tasks if task.layer == "event")
+
+
+def test_pixel_tasks_measure_the_roi_exactly_where_a_claim_needs_it():
+    from rollsim.paper import ROI_QUANTITIES, PaperOptions, cluster_tasks
+
+    needs = {key for claim, key in claims() if claim.quantity in ROI_QUANTITIES}
+    assert {f"d{d}" for d in DISTANCES_CM} <= needs
+    for task in cluster_tasks(PaperOptions.make(quick=False), _paper_scenes()):
+        if task.layer == "pixel":
+            assert task.args[-1] == any(key in needs for key in task.keys), task.keys
+
+
+def test_pixel_figures_without_the_roi_are_the_same_figures():
+    """decode_frame and inspect_frame read the same PHY-SDUs: only the ROI and its bound go."""
+    from rollsim.paper.layers import pixel_figures
+
+    overrides = ("camera.width_px=320", "camera.height_px=240")
+    measured = pixel_figures(overrides, 6)
+    unmeasured = pixel_figures(overrides, 6, measure_roi=False)
+    assert measured["roi_ratio"] is not None and measured["throughput_bound_bps"] is not None
+    assert unmeasured["roi_ratio"] is None and unmeasured["throughput_bound_bps"] is None
+    same = {"roi_ratio", "throughput_bound_bps", "seconds"}
+    assert measured["ok"] > 0
+    assert {k: v for k, v in measured.items() if k not in same} == {k: v for k, v in unmeasured.items() if k not in same}

@@ -12,9 +12,12 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional
+from typing import TYPE_CHECKING, Callable, Mapping, NamedTuple, Optional
 
-__all__ = ["PaperOptions", "compute_comparisons", "run_paper"]
+if TYPE_CHECKING:
+    from rollsim.scene.model import Scene
+
+__all__ = ["PaperOptions", "cluster_tasks", "compute_comparisons", "run_paper"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +75,84 @@ def throughput_bound_text(pixel: dict) -> str:
             "its throughput follows its ROI")
 
 
+# Claims whose pixel figure needs the decoder's stripe rows measured.
+ROI_QUANTITIES = ("ROI ratio", "throughput")
+
+
+class ClusterTask(NamedTuple):
+    """One computation on the cluster and the settings it serves.
+
+    Attributes
+    ----------
+    layer : str
+        ``"pixel"``, ``"event"`` or ``"camcomsim"``.
+    keys : tuple of str
+        The settings (:func:`rollsim.paper.experiments.settings`) whose
+        scenes resolve to the same one: each gets the result.
+    function : callable
+    args : tuple
+    """
+
+    layer: str
+    keys: tuple
+    function: Callable
+    args: tuple
+
+
+def cluster_tasks(options: PaperOptions, scenes: Mapping[str, Scene]) -> list[ClusterTask]:
+    """The pixel, event and CamComSim computations of every claimed setting, each scene once.
+
+    Settings named differently may resolve to the same scene (the 1 kB
+    message at 5 cm with one repeat is both Fig. 15's and Fig. 18's): they
+    share one computation, as the same scene and seed give the same
+    figures. A pixel task measures the ROI only where a setting it serves
+    has a ROI or throughput claim.
+
+    Parameters
+    ----------
+    options : PaperOptions
+    scenes : mapping of str to Scene
+        Every claimed setting's scene (:func:`rollsim.paper.layers.load`
+        of its overrides).
+    """
+    from rollsim.paper.experiments import claims, settings
+    from rollsim.paper.layers import pixel_figures
+    from rollsim.scene import scene_to_yaml
+
+    all_settings = settings()
+    wanted = sorted({key for _, key in claims()})
+    needs_roi = {key for claim, key in claims() if claim.quantity in ROI_QUANTITIES}
+    # The resolved scene, not the overrides' spelling, tells two settings apart.
+    identity = {key: scene_to_yaml(scenes[key]) for key in wanted}
+    grouped: dict[tuple, list[str]] = {}
+    arguments: dict[tuple, tuple] = {}
+
+    def add(layer: str, key: str, overrides: tuple, count: int, extra: tuple = ()) -> None:
+        task = (layer, identity[key], extra, count)
+        grouped.setdefault(task, []).append(key)
+        arguments.setdefault(task, ((*overrides, *extra), count))
+
+    for key in wanted:
+        setting = all_settings[key]
+        if setting.pixel and (setting.quick_pixel or not options.quick):
+            add("pixel", key, setting.overrides, max(1, round(options.frames * setting.frames_factor)))
+    for key in wanted:
+        setting = all_settings[key]
+        add("event", key, setting.overrides, options.runs)
+        if setting.camcomsim:
+            add("camcomsim", key, setting.overrides, options.runs, tuple(setting.camcomsim_overrides))
+    functions: dict[str, Callable[..., dict]] = {"pixel": pixel_figures, "event": _mmbp_figures,
+                                                 "camcomsim": _camcomsim_figures}
+    tasks = []
+    for task, keys in grouped.items():
+        layer = task[0]
+        args = arguments[task]
+        if layer == "pixel":
+            args = (*args, any(key in needs_roi for key in keys))
+        tasks.append(ClusterTask(layer, tuple(keys), functions[layer], args))
+    return tasks
+
+
 def compute_comparisons(options: PaperOptions, client, progress: Optional[Callable[[str], None]] = None) -> dict:
     """Every comparison row, computed on ``client`` (a ``dask.distributed.Client``).
 
@@ -85,32 +166,25 @@ def compute_comparisons(options: PaperOptions, client, progress: Optional[Callab
 
     from rollsim.paper.compare import analytic_rows, comparison_row, layer_values, message_probability_rows
     from rollsim.paper.experiments import claims, settings
-    from rollsim.paper.layers import analytic_figures, load, pixel_figures
+    from rollsim.paper.layers import analytic_figures, load
 
     say = progress or (lambda text: None)
     start = time.perf_counter()
     all_settings = settings()
     wanted = {key for _, key in claims()}
-    futures = {}
-    for key in sorted(wanted):
-        setting = all_settings[key]
-        if setting.pixel and (setting.quick_pixel or not options.quick):
-            frames = max(1, round(options.frames * setting.frames_factor))
-            futures[client.submit(pixel_figures, setting.overrides, frames, pure=False)] = (key, "pixel")
-    for key in sorted(wanted):
-        setting = all_settings[key]
-        futures[client.submit(_mmbp_figures, setting.overrides, options.runs, pure=False)] = (key, "event")
-        if setting.camcomsim:
-            overrides = (*setting.overrides, *setting.camcomsim_overrides)
-            futures[client.submit(_camcomsim_figures, overrides, options.runs, pure=False)] = (key, "camcomsim")
+    scenes = {key: load(all_settings[key].overrides) for key in wanted}
+    tasks = cluster_tasks(options, scenes)
+    futures = {client.submit(task.function, *task.args, pure=False): task for task in tasks}
     r_values = range(1, 7)
     one_round = client.submit(_one_round_fractions, 3, 2, 0.001, 22, r_values, options.runs, 1, pure=False)
-    figures = {key: {"analytic": analytic_figures(load(all_settings[key].overrides))} for key in wanted}
+    figures = {key: {"analytic": analytic_figures(scene)} for key, scene in scenes.items()}
     say(f"{len(futures)} settings on the cluster")
     for done, future in enumerate(as_completed(list(futures), loop=client.loop), 1):
-        key, layer = futures[future]
-        figures[key][layer] = future.result()
-        say(f"[{done}/{len(futures)}] {key} {layer}")
+        task = futures[future]
+        result = future.result()
+        for key in task.keys:
+            figures[key][task.layer] = result
+        say(f"[{done}/{len(futures)}] {', '.join(task.keys)} {task.layer}")
     rows = analytic_rows()
     rows += message_probability_rows(3, 2, 0.001, 22, r_values, one_round.result())
     for claim, key in claims():

@@ -47,7 +47,7 @@ def event_figures(scene: Scene, channel: str, runs: int, workers: int = 1) -> di
             "completed_fraction": float(result.completed.mean()), "runs": runs}
 
 
-def pixel_figures(overrides: tuple, frames: int) -> dict:
+def pixel_figures(overrides: tuple, frames: int, measure_roi: bool = True) -> dict:
     """The pixel pipeline on ``paper-default`` with ``overrides``, ``frames`` frames, in memory.
 
     Goodput is the scene's strategy replayed over the decoded outcome
@@ -57,7 +57,10 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
     (:func:`rollsim.channel.analytic.throughput_bound_bps`); the ROI ratio is the mean fraction of rows
     in which the decoder reads the LED's stripes
     (:func:`decoder.stripe_row_fraction`), whether or not a whole PHY-SDU
-    fits in them, as the paper measured it.
+    fits in them, as the paper measured it. Without ``measure_roi`` the
+    ROI is not measured (the decoder's stripe rows cost two thirds of its
+    time) and ``roi_ratio`` and ``throughput_bound_bps`` are None; every
+    other figure is the same.
     """
     from rollsim.calibrate import p_e_text
     from rollsim.channel.analytic import throughput_bound_bps
@@ -65,19 +68,21 @@ def pixel_figures(overrides: tuple, frames: int) -> dict:
     from rollsim.sweeps.stages import run_row
 
     scene = load([*overrides, f"frames={frames}"])
-    row = run_row(scene, {})
+    row = run_row(scene, {}, measure_roi=measure_roi)
     bits = scene.link.header_bits + scene.link.payload_bits
     camera = scene.camera
     duration_s = frames * camera.frame_period_s
-    window_s = row["roi_ratio"] * camera.readout_s + camera.exposure_s
+    bound_bps = None
+    if row["roi_ratio"] is not None:
+        window_s = row["roi_ratio"] * camera.readout_s + camera.exposure_s
+        bound_bps = throughput_bound_bps(camera.frame_period_s, window_s, sdu_duration_from_scene(scene), bits)
     return {
         "roi_ratio": row["roi_ratio"],
         # rlnc has no replay through a repetition schedule: its goodput is the receiver's.
         "goodput_bps": (row["goodput_received_bps"] if scene.link.strategy == "rlnc"
                         else row.get("goodput_replayed_bps") or 0.0),
         "throughput_bps": bits * row["ok"] / duration_s,
-        "throughput_bound_bps": throughput_bound_bps(camera.frame_period_s, window_s, sdu_duration_from_scene(scene),
-                                                     bits),
+        "throughput_bound_bps": bound_bps,
         "p_e": row.get("p_e"),
         "p_e_text": None if row.get("p_e") is None else p_e_text(
             {"p_e": row["p_e"], "p_e_ci95": [row["p_e_ci_low"], row["p_e_ci_high"]],

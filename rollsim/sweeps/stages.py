@@ -114,11 +114,15 @@ def _predicted_goodput_bps(fit, link, n: int, sdu_s: float) -> float:
     return mmbp_expected_goodput_bps(fit.M, fit.N, link.repeats, fit.p_e, n, link.strategy, link.payload_bits, sdu_s)
 
 
-def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> dict:
+def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None, measure_roi: bool = True) -> dict:
     """The pixel pipeline's figures of one scene: render and decode in memory, evaluate, fit.
 
     With ``frames_dir``, the frames are also written there as a render
     directory (frames, truth, resolved scene), committed as one output.
+    Without ``measure_roi``, the decoder reads the frames without
+    measuring its stripe rows (:func:`decoder.decode_frame`, the same
+    PHY-SDUs as :func:`decoder.inspect_frame` in a third of the time) and
+    ``roi_ratio`` is None.
     """
     import numpy as np
 
@@ -128,7 +132,7 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
     from rollsim.render import RenderPipeline
     from rollsim.sweeps.stream import DecodedRun
 
-    run = DecodedRun(RenderPipeline(scene), measure_stripes=True)
+    run = DecodedRun(RenderPipeline(scene), measure_stripes=measure_roi)
     if frames_dir is not None:
         _write_frames(run, scene, frames_dir)
     else:
@@ -140,7 +144,7 @@ def run_row(scene: Scene, options: dict, frames_dir: Optional[Path] = None) -> d
     row = {"frames": scene.frames, "emissions": summary["emissions"], "fully_visible": summary["fully_visible"],
            **{name: counts[name] for name in ("ok", "corrupted", "missed", "undetected_error", "not_visible")},
            "false_decodes": summary["false_decodes"], "error_rate": summary["error_rate"],
-           "roi_ratio": float(np.mean(run.stripe_fractions)) if run.stripe_fractions else 0.0,
+           "roi_ratio": (float(np.mean(run.stripe_fractions)) if run.stripe_fractions else 0.0) if measure_roi else None,
            "render_s": float(sum(run.render_s)), "decode_s": float(sum(run.decode_s))}
     physics = physics_prediction(scene)
     row.update(M_physics=physics["M"], N_physics=physics["N"])
