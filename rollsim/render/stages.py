@@ -29,7 +29,7 @@ from rollsim.effects.base import SLOTS, Stage, on_box
 from rollsim.errors import RollsimError
 from rollsim.sensor import electrons_to_dn, gray8_lut
 from rollsim.sensor.cfa import demosaic
-from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_chain
+from rollsim.sensor.chain import CHAIN_ORDER, Adc, ChainKeys, ChainStep, run_chain, run_noiseless_chain
 from rollsim.sensor.means import SeparableMeans
 
 if TYPE_CHECKING:
@@ -207,7 +207,8 @@ def assemble_stages(setup: SceneSetup) -> list[Stage]:
 # always runs fused. A chain that starts later (the clip or the ADC after
 # blooming or a fixed-pattern offset) runs fused when the electrons it is
 # given are float32, as the kernel takes them; on the float64 means of a
-# render without noise its stages run one by one, on float64 as before.
+# render without noise, the clip, the ADC and the output table run in one
+# compiled float64 pass (run_noiseless_chain), else its stages one by one.
 _NOISE_STEPS = ("shot", "read")
 
 
@@ -245,14 +246,22 @@ def fused_chain_stage(run: list[Stage]) -> Stage:
 
     def run_fused(state):
         if not noise_first and (state.means is not None or state.electrons.dtype != np.float32):
-            for stage in run:  # float64 electrons: the stages' own arithmetic
-                stage(state)
-            return
-        keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
-                         read=None if read is None else state.counter_key(read.stream))
-        result = run_chain(state.means_or_electrons, None if shot is None else shot.value, keys, full_well_e=full_well,
-                           read_sigma_e=None if read is None else read.value, adc=adc,
-                           lut=None if output is None else output.value)
+            # float64 electrons: the stages' own arithmetic, in one compiled
+            # pass where the run has no noise, reaches the ADC and the
+            # kernels are used.
+            noiseless = adc is not None and shot is None and read is None
+            result = run_noiseless_chain(state.electrons, full_well, adc, None if output is None else output.value) \
+                if noiseless else None
+            if result is None:
+                for stage in run:
+                    stage(state)
+                return
+        else:
+            keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
+                             read=None if read is None else state.counter_key(read.stream))
+            result = run_chain(state.means_or_electrons, None if shot is None else shot.value, keys,
+                               full_well_e=full_well, read_sigma_e=None if read is None else read.value, adc=adc,
+                               lut=None if output is None else output.value)
         if last in ("shot", "full_well", "read"):
             state.electrons = result
         elif last == "adc" or output.value is None:  # raw16 output is the DN

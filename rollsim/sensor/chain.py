@@ -653,6 +653,59 @@ def run_chain(lam: np.ndarray | SeparableMeans, shot: Optional[Literal["poisson"
     return out.reshape(np.shape(lam))
 
 
+@kernel
+def _noiseless_kernel(electrons, full_well, adc, lut, out):  # pragma: no cover - compiled
+    # The full-well clip, the ADC and the output table of noiseless float64
+    # electrons, each pixel in one pass: electrons_to_dn's float64
+    # operations in its order (multiply, add, clip, truncate).
+    for i in range(electrons.size):
+        e = electrons[i]
+        if full_well is not None:
+            e = min(max(e, 0.0), full_well)
+        dn = e * adc[0]
+        dn += adc[1]
+        level = np.uint16(min(max(dn, 0.0), adc[2]))
+        if lut is None:
+            out[i] = level
+        else:
+            out[i] = lut[level]
+    return 0
+
+
+def run_noiseless_chain(electrons: np.ndarray, full_well_e: Optional[float], adc: Adc,
+                        lut: Optional[np.ndarray] = None) -> Optional[np.ndarray]:
+    """The chain after the noise on noiseless float64 electrons, compiled; None where the kernels are not used.
+
+    The full-well clip (if given), the ADC and the output table (if given)
+    in one pass, with the float64 arithmetic of the stages one by one
+    (:func:`rollsim.sensor.adc.electrons_to_dn`): the same DN, byte for
+    byte (tested). A render without noise otherwise makes a numpy pass per
+    step over the frame.
+
+    Parameters
+    ----------
+    electrons : ndarray of float64, shape (H, W)
+        Mean electrons (finite).
+    full_well_e : float, optional
+    adc : Adc
+    lut : ndarray, optional
+        The output value of every DN.
+
+    Returns
+    -------
+    ndarray, shape of ``electrons``: uint16 DN, or ``lut`` values; or None
+    """
+    compiled = _noiseless_kernel.compiled
+    if compiled is None:
+        return None
+    flat = np.ascontiguousarray(electrons, dtype=np.float64).ravel()
+    out = np.empty(flat.size, dtype=np.uint16 if lut is None else lut.dtype)
+    constants = (np.float64(adc.gain_dn_per_e), np.float64(adc.black_level_dn + 0.5), np.float64(2**adc.bits - 0.5))
+    compiled(flat, None if full_well_e is None else np.float64(full_well_e), constants,
+             None if lut is None else np.ascontiguousarray(lut), out)
+    return out.reshape(np.shape(electrons))
+
+
 def warm_up() -> None:
     """Compile (or load from the cache) the chain's kernels now, e.g. before worker processes fork and inherit them.
 
@@ -672,4 +725,5 @@ def shot_poisson(key: np.uint64, lam: np.ndarray) -> np.ndarray:
     return run_chain(lam, "poisson", ChainKeys(shot=key))
 
 
-__all__ = ["Adc", "CHAIN_ORDER", "ChainKeys", "ChainStep", "SHOT_METHODS", "run_chain", "shot_poisson", "warm_up"]
+__all__ = ["Adc", "CHAIN_ORDER", "ChainKeys", "ChainStep", "SHOT_METHODS", "run_chain", "run_noiseless_chain", "shot_poisson",
+           "warm_up"]

@@ -33,6 +33,12 @@ SCENES = [
     ("stress-saturation", []),
     ("paper-geometric", ["effects=[read_noise]"]),
     ("paper-geometric", ["effects.read_noise.method=exact"]),
+    # Without noise: the clip, the ADC and the output table in one compiled pass.
+    ("paper-geometric", ["effects=[]"]),
+    ("paper-geometric", ["effects=[]", "camera.output=raw16"]),
+    ("stress-saturation", ["effects.shot_noise=null", "effects.read_noise=null"]),
+    ("effect-blooming", ["effects.shot_noise=null", "effects.read_noise=null"]),
+    ("effect-bayer", ["effects.shot_noise=null", "effects.read_noise=null"]),
 ]
 
 
@@ -199,3 +205,25 @@ def test_kernel_cache_dir_is_keyed_by_the_kernel_sources(tmp_path, monkeypatch):
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     path = jit.kernel_cache_dir()
     assert path.parent == tmp_path and path.name == f"rollsim-{jit.sources_hash()}" and path.is_dir()
+
+
+@pytest.mark.skipif(chain._noiseless_kernel.compiled is None, reason="numba is not installed or ROLLSIM_JIT=0")
+@pytest.mark.parametrize("full_well", [None, 5000.0])
+@pytest.mark.parametrize("table", [False, True])
+def test_the_noiseless_chain_is_the_clip_and_the_adc_to_the_bit(full_well, table):
+    from rollsim.sensor.adc import electrons_to_dn
+
+    rng = np.random.default_rng(4)
+    adc = Adc(0.37, 64, 10)
+    # Means across the range, over the full well and the ADC's top, and on
+    # the ADC's rounding edges (K·e + black + 0.5 a whole number).
+    edges = (np.arange(1, 1000) - 0.5) / adc.gain_dn_per_e
+    electrons = np.concatenate([rng.uniform(0, 8000, 20_000), edges, [0.0, 1e-300, 5000.0, 7e4, 1e9]]).reshape(4, -1)
+    lut = gray8_lut(adc.black_level_dn, adc.bits, None) if table else None
+    clipped = electrons if full_well is None else np.clip(electrons, 0.0, full_well)
+    expected = electrons_to_dn(clipped.copy(), adc.gain_dn_per_e, adc.black_level_dn, adc.bits)
+    if table:
+        expected = lut[expected]
+    got = chain.run_noiseless_chain(electrons, full_well, adc, lut)
+    assert got.dtype == expected.dtype and got.shape == electrons.shape
+    assert np.array_equal(got, expected)
