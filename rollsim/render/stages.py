@@ -244,24 +244,32 @@ def fused_chain_stage(run: list[Stage]) -> Stage:
 
     noise_first = run[0].chain_step is not None and run[0].chain_step.kind in _NOISE_STEPS
 
+    noiseless = adc is not None and shot is None and read is None
+
+    def run_float64(state):
+        # float64 electrons: the stages' own arithmetic, in one compiled pass
+        # where the run has no noise, reaches the ADC and the kernels are used.
+        done = run_noiseless_chain(state.electrons, full_well, adc, None if output is None else output.value) \
+            if noiseless else None
+        if done is None:
+            for stage in run:
+                stage(state)
+            return
+        # What the stages one by one leave: the clipped electrons, the DN, the output.
+        state.electrons, state.dn = done.electrons, done.dn
+        if last == "output":
+            state.image = done.dn if output.value is None else (
+                done.image if output.finish is None else output.finish(done.image))
+
     def run_fused(state):
         if not noise_first and (state.means is not None or state.electrons.dtype != np.float32):
-            # float64 electrons: the stages' own arithmetic, in one compiled
-            # pass where the run has no noise, reaches the ADC and the
-            # kernels are used.
-            noiseless = adc is not None and shot is None and read is None
-            result = run_noiseless_chain(state.electrons, full_well, adc, None if output is None else output.value) \
-                if noiseless else None
-            if result is None:
-                for stage in run:
-                    stage(state)
-                return
-        else:
-            keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
-                             read=None if read is None else state.counter_key(read.stream))
-            result = run_chain(state.means_or_electrons, None if shot is None else shot.value, keys,
-                               full_well_e=full_well, read_sigma_e=None if read is None else read.value, adc=adc,
-                               lut=None if output is None else output.value)
+            run_float64(state)
+            return
+        keys = ChainKeys(shot=None if shot is None else state.counter_key(shot.stream),
+                         read=None if read is None else state.counter_key(read.stream))
+        result = run_chain(state.means_or_electrons, None if shot is None else shot.value, keys, full_well_e=full_well,
+                           read_sigma_e=None if read is None else read.value, adc=adc,
+                           lut=None if output is None else output.value)
         if last in ("shot", "full_well", "read"):
             state.electrons = result
         elif last == "adc" or output.value is None:  # raw16 output is the DN

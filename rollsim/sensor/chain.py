@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Callable, Literal, Optional
+from typing import Any, Callable, Literal, NamedTuple, Optional
 
 import numpy as np
 
@@ -654,38 +654,48 @@ def run_chain(lam: np.ndarray | SeparableMeans, shot: Optional[Literal["poisson"
 
 
 @kernel
-def _noiseless_kernel(electrons, full_well, adc, lut, out):  # pragma: no cover - compiled
-    # The full-well clip, the ADC and the output table of noiseless float64
-    # electrons, each pixel in one pass: electrons_to_dn's float64
-    # operations in its order (multiply, add, clip, truncate).
+def _noiseless_kernel(electrons, full_well, adc, lut, dn_out, out):  # pragma: no cover - compiled
+    # The full-well clip (in place), the ADC and the output table of
+    # noiseless float64 electrons, each pixel in one pass: the clip's and
+    # electrons_to_dn's float64 operations in their order (multiply, add,
+    # clip, truncate).
     for i in range(electrons.size):
         e = electrons[i]
         if full_well is not None:
             e = min(max(e, 0.0), full_well)
+            electrons[i] = e
         dn = e * adc[0]
         dn += adc[1]
         level = np.uint16(min(max(dn, 0.0), adc[2]))
-        if lut is None:
-            out[i] = level
-        else:
+        dn_out[i] = level
+        if lut is not None:
             out[i] = lut[level]
     return 0
 
 
+class NoiselessChain(NamedTuple):
+    """What the stages of a noiseless chain leave: the clipped electrons, the DN and the output (or None)."""
+
+    electrons: np.ndarray
+    dn: np.ndarray
+    image: Optional[np.ndarray]
+
+
 def run_noiseless_chain(electrons: np.ndarray, full_well_e: Optional[float], adc: Adc,
-                        lut: Optional[np.ndarray] = None) -> Optional[np.ndarray]:
+                        lut: Optional[np.ndarray] = None) -> Optional[NoiselessChain]:
     """The chain after the noise on noiseless float64 electrons, compiled; None where the kernels are not used.
 
     The full-well clip (if given), the ADC and the output table (if given)
     in one pass, with the float64 arithmetic of the stages one by one
-    (:func:`rollsim.sensor.adc.electrons_to_dn`): the same DN, byte for
-    byte (tested). A render without noise otherwise makes a numpy pass per
-    step over the frame.
+    (:func:`rollsim.sensor.adc.electrons_to_dn`): the same electrons, DN
+    and output, byte for byte (tested). A render without noise otherwise
+    makes a numpy pass per step over the frame.
 
     Parameters
     ----------
     electrons : ndarray of float64, shape (H, W)
-        Mean electrons (finite).
+        Mean electrons (finite). Clipped in place when C-contiguous float64,
+        as the full-well stage does.
     full_well_e : float, optional
     adc : Adc
     lut : ndarray, optional
@@ -693,17 +703,21 @@ def run_noiseless_chain(electrons: np.ndarray, full_well_e: Optional[float], adc
 
     Returns
     -------
-    ndarray, shape of ``electrons``: uint16 DN, or ``lut`` values; or None
+    NoiselessChain or None
+        The clipped electrons (float64), the DN (uint16) and the table's
+        output (None without ``lut``), each of the shape of ``electrons``.
     """
     compiled = _noiseless_kernel.compiled
     if compiled is None:
         return None
-    flat = np.ascontiguousarray(electrons, dtype=np.float64).ravel()
-    out = np.empty(flat.size, dtype=np.uint16 if lut is None else lut.dtype)
+    shape = np.shape(electrons)
+    flat = np.ascontiguousarray(electrons, dtype=np.float64).reshape(-1)
+    dn = np.empty(flat.size, dtype=np.uint16)
+    out = None if lut is None else np.empty(flat.size, dtype=lut.dtype)
     constants = (np.float64(adc.gain_dn_per_e), np.float64(adc.black_level_dn + 0.5), np.float64(2**adc.bits - 0.5))
     compiled(flat, None if full_well_e is None else np.float64(full_well_e), constants,
-             None if lut is None else np.ascontiguousarray(lut), out)
-    return out.reshape(np.shape(electrons))
+             None if lut is None else np.ascontiguousarray(lut), dn, dn if out is None else out)
+    return NoiselessChain(flat.reshape(shape), dn.reshape(shape), None if out is None else out.reshape(shape))
 
 
 def warm_up() -> None:

@@ -224,6 +224,11 @@ def test_the_noiseless_chain_is_the_clip_and_the_adc_to_the_bit(full_well, table
     expected = electrons_to_dn(clipped.copy(), adc.gain_dn_per_e, adc.black_level_dn, adc.bits)
     if table:
         expected = lut[expected]
-    got = chain.run_noiseless_chain(electrons, full_well, adc, lut)
+    dn = electrons_to_dn(clipped.copy(), adc.gain_dn_per_e, adc.black_level_dn, adc.bits)
+    done = chain.run_noiseless_chain(electrons, full_well, adc, lut)
+    # The stages' leavings: the clipped electrons (in place), the DN and the table's output.
+    assert np.shares_memory(done.electrons, electrons)
+    assert np.array_equal(done.electrons, clipped) and np.array_equal(done.dn, dn) and done.dn.dtype == np.uint16
+    got = done.dn if lut is None else done.image
     assert got.dtype == expected.dtype and got.shape == electrons.shape
     assert np.array_equal(got, expected)
