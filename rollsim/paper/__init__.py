@@ -124,13 +124,11 @@ def cluster_tasks(options: PaperOptions, scenes: Mapping[str, Scene]) -> list[Cl
     needs_roi = {key for claim, key in claims() if claim.quantity in ROI_QUANTITIES}
     # The resolved scene, not the overrides' spelling, tells two settings apart.
     identity = {key: scene_to_yaml(scenes[key]) for key in wanted}
-    grouped: dict[tuple, list[str]] = {}
-    arguments: dict[tuple, tuple] = {}
+    # Per task (layer, scene, extra overrides, count): the first setting's arguments and every setting served.
+    grouped: dict[tuple, tuple[tuple, list[str]]] = {}
 
     def add(layer: str, key: str, overrides: tuple, count: int, extra: tuple = ()) -> None:
-        task = (layer, identity[key], extra, count)
-        grouped.setdefault(task, []).append(key)
-        arguments.setdefault(task, ((*overrides, *extra), count))
+        grouped.setdefault((layer, identity[key], extra, count), (((*overrides, *extra), count), []))[1].append(key)
 
     for key in wanted:
         setting = all_settings[key]
@@ -144,9 +142,7 @@ def cluster_tasks(options: PaperOptions, scenes: Mapping[str, Scene]) -> list[Cl
     functions: dict[str, Callable[..., dict]] = {"pixel": pixel_figures, "event": _mmbp_figures,
                                                  "camcomsim": _camcomsim_figures}
     tasks = []
-    for task, keys in grouped.items():
-        layer = task[0]
-        args = arguments[task]
+    for (layer, *_), (args, keys) in grouped.items():
         if layer == "pixel":
             args = (*args, any(key in needs_roi for key in keys))
         tasks.append(ClusterTask(layer, tuple(keys), functions[layer], args))

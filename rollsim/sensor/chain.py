@@ -715,6 +715,7 @@ def run_noiseless_chain(electrons: np.ndarray, full_well_e: Optional[float], adc
     dn = np.empty(flat.size, dtype=np.uint16)
     out = None if lut is None else np.empty(flat.size, dtype=lut.dtype)
     constants = (np.float64(adc.gain_dn_per_e), np.float64(adc.black_level_dn + 0.5), np.float64(2**adc.bits - 0.5))
+    # Without a table the kernel writes no output beyond the DN: the DN array stands in for it.
     compiled(flat, None if full_well_e is None else np.float64(full_well_e), constants,
              None if lut is None else np.ascontiguousarray(lut), dn, dn if out is None else out)
     return NoiselessChain(flat.reshape(shape), dn.reshape(shape), None if out is None else out.reshape(shape))

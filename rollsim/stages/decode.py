@@ -397,19 +397,23 @@ def _decode_chunk_with(chunk: list[tuple[int, str]], settings: DecodeSettings, m
     return out
 
 
-def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings, max_pixels: int,
-                  run: Optional[str] = None) -> list[tuple[int, list[dict], Optional[dict]]]:
+def _decoded_frames(frames: list, settings: DecodeSettings, first_frame: int, run: Optional[str] = None,
+                    **options) -> Iterator[tuple[int, list[dict], Optional[dict]]]:
+    """rollsim's decoder on frames (paths or arrays) numbered from ``first_frame``: per frame, its index, its
+    records (with the render's identifier ``run``, if given) and its error record (None when it was read)."""
     from decoder import decode_frames
 
+    provenance = {} if run is None else {"run": run}
+    for result in decode_frames(frames, settings.phy, settings.clock_hz, settings.row_time_s, first_frame=first_frame,
+                                exposure_s=settings.exposure_s, **options):
+        yield result.frame, [{**r, **provenance} for r in result.to_records()], result.error_record()
+
+
+def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings, max_pixels: int,
+                  run: Optional[str] = None) -> list[tuple[int, list[dict], Optional[dict]]]:
     if settings.decoder is not None:
         return _decode_chunk_with(chunk, settings, max_pixels, run)
-    first = chunk[0][0]
-    out = []
-    provenance = {} if run is None else {"run": run}
-    for result in decode_frames([path for _, path in chunk], settings.phy, settings.clock_hz, settings.row_time_s,
-                                first_frame=first, max_pixels=max_pixels, exposure_s=settings.exposure_s):
-        out.append((result.frame, [{**r, **provenance} for r in result.to_records()], result.error_record()))
-    return out
+    return list(_decoded_frames([path for _, path in chunk], settings, chunk[0][0], run, max_pixels=max_pixels))
 
 
 def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1,
@@ -483,14 +487,8 @@ class FrameDecoder:
 
     def __call__(self, index: int, image, source: str) -> tuple[list[dict], Optional[dict]]:
         """Records of frame ``index`` and its error record (None when it was read); ``source`` names it."""
-        from decoder import decode_frames
-
-        settings = self.settings
-        result = next(decode_frames([image], settings.phy, settings.clock_hz, settings.row_time_s, first_frame=index,
-                                    exposure_s=settings.exposure_s))
-        provenance = {} if self.run is None else {"run": self.run}
-        error = result.error_record()
-        return [{**r, **provenance} for r in result.to_records()], None if error is None else {**error, "source": source}
+        _, records, error = next(_decoded_frames([image], self.settings, index, self.run))
+        return records, None if error is None else {**error, "source": source}
 
 
 class DecodedRecords:
