@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rollsim.fit import fit_camera
-from rollsim.fit.measure import detect_binning
+from rollsim.fit.binning import detect_binning
 from rollsim.fit.stripes import box_level_range, levels_for_whole_periods, reflected_levels, square_wave_box, \
     stripe_profile
 from rollsim.render import render_frames

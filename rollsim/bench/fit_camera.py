@@ -248,6 +248,9 @@ def run_camera(cam: HiddenCamera) -> dict:
         temporal_noise_error=(noise[1] / noise[0] - 1.0) if noise[0] > 0 else None,
         correlation=float(min(comparison.correlations)),
         binning_found=int(est["binning_rows"].value),
+        # What the stripes were read as, for the misses' diagnosis.
+        fitted_gamma=est["tone_gamma"].value, fitted_smoothing_rows=est["isp_smoothing_rows"].value,
+        fitted_on_level=est["on_level"].value,
         not_identified=[name for name, e in est.items() if e.source == "not identified"],
     )
     return row

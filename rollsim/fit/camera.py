@@ -32,8 +32,9 @@ from typing import Sequence
 
 import numpy as np
 
-from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, detect_binning, find_led_region, \
-    level_noise_pairs, temporal_noise
+from rollsim.fit.binning import detect_binning
+from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, find_led_region, level_noise_pairs, \
+    temporal_noise
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
     photon_transfer, \
     tone_slope, unclipped
@@ -162,7 +163,7 @@ class Measured:
 
 def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float],
             region: LedRegion | None = None, start: StripeFit | None = None,
-            stripes_at: tuple[slice, float] | None = None) -> Measured:
+            stripes_at: tuple[slice, float] | None = None, binning: tuple[int, int] | None = None) -> Measured:
     """The fit's statistics of a set of frames (see the module docstring, steps 1–5).
 
     ``row_time`` is the row time and its uncertainty (s, s), estimated first
@@ -171,6 +172,9 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     frames were); ``start`` starts the stripe fit from an earlier one.
     ``stripes_at`` (rows, centre column where the stripes move between
     frames) checks the region found (:func:`rollsim.fit.measure.find_led_region`).
+    ``binning`` (k, offset) skips its detection (:func:`rollsim.fit.binning.detect_binning`
+    on ``frames``): colour frames' is seen on their luminance, rendered
+    frames' is what was rendered.
     """
     shape = frames[0].shape
     row_time_s, row_time_sd = row_time
@@ -180,7 +184,8 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     if region is None:
         region = find_led_region(brightest, np.min(frames, axis=0), mean_frame, HALO_RADII, period, stripes_at)
     rows, cols = region.band
-    binning = detect_binning(frames)
+    if binning is None:
+        binning = detect_binning(frames)
     profiles = [f[rows, cols].mean(axis=1) for f in frames]
     stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning)
     levels, variances = level_noise_pairs(frames, rows, cols)

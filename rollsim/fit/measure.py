@@ -18,8 +18,6 @@ from typing import Sequence
 
 import numpy as np
 
-from decoder.binning import binned_groups
-
 
 @dataclass(frozen=True)
 class LedDisk:
@@ -110,16 +108,6 @@ class LedRegion:
     disk: LedDisk | None
     band: tuple[slice, slice]
     block: tuple[slice, slice] | None
-
-
-def detect_binning(frames: Sequence[np.ndarray]) -> tuple[int, int]:
-    """Binned readout seen in the frames: (k, offset), rows ``offset + j·k``
-    starting each group of k near-identical rows; (1, 0) when the rows are not
-    grouped (:func:`decoder.binning.binned_groups`, over frames and columns).
-    """
-    stack = np.asarray(frames, dtype=np.float64)
-    steps = np.abs(np.diff(stack, axis=1)).mean(axis=(0, 2))  # row r+1 against row r, over frames and columns
-    return binned_groups(steps)
 
 
 def lit_border_fraction(brightest: np.ndarray, darkest: np.ndarray, period_rows: float) -> float:

@@ -17,6 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import choose_channel
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
     anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, measure, \
@@ -108,6 +109,9 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     stripes_at = moving_stripes(eight_bit)
     del eight_bit
     colour = len(shape) == 3
+    # Binned rows are seen on the luminance of colour frames: JPEG's chroma
+    # is subsampled over pairs of rows (rollsim.fit.binning).
+    binning = detect_binning(as_fitted(frames, "luminance" if colour else "grey"))
     if colour:
         channel, frames = choose_channel(frames, 2.0 / (clock_hz * row_time[0]))
         shape = shape[:2]
@@ -115,7 +119,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         channel, frames = "grey", as_fitted(frames, "grey")
     say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px ({channel}); "
         "fitting the stripes and the noise")
-    target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at)
+    target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning)
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
     params, noise = direct(target, base)
     notes: list[str] = []
@@ -123,8 +127,8 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     best = None
     for k in range(iterations + 1):
         images, _ = render_frames(scene, len(frames))
-        rendered = measure(as_fitted(images, channel), clock_hz,
-                           row_time=(scene.camera.row_time_s, 0.0), region=target.region, start=target.stripes)
+        rendered = measure(as_fitted(images, channel), clock_hz, row_time=(scene.camera.row_time_s, 0.0),
+                           region=target.region, start=target.stripes, binning=(scene.camera.binning_rows, 0))
         score = mismatch(target, rendered, params.gamma)
         if best is None or score < best[0]:
             best = (score, params, scene, notes)
