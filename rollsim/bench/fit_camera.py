@@ -35,8 +35,8 @@ FRAMES = 6
 # Stripes below this contrast (8-bit levels, in a noise-free frame) hold no readable square wave.
 MIN_CONTRAST_8BIT = 6.0
 # The row-time estimator needs 8 edges (decoder.rowtime.MIN_EDGES) in a
-# frame; four periods leave room for the disk's ends, where the chords are
-# too short to read.
+# frame, or 6 (FEW_EDGES) in most frames; four periods leave room for the
+# disk's ends, where the chords are too short to read.
 MIN_PERIODS = 4.0
 TARGETS = {"fitted_fraction": 0.90, "row_time": 0.005, "exposure": 0.10, "exposure_saturated": 0.15,
            "temporal_noise": 0.20, "correlation": 0.98, "median_seconds": 30.0}

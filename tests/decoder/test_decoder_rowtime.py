@@ -167,3 +167,37 @@ def test_the_cli_refuses_data_frames(tmp_path, capsys):
     capsys.readouterr()
     assert main(["estimate-row-time", str(out / "frames"), "--clock-hz", "8000"]) == 2
     assert capsys.readouterr().err.strip() == "rollsim: error: no frame shows a square-wave LED to calibrate the row time from"
+
+
+def _short_square_frames(n_frames: int, period_rows: float = 40.0, rows: int = 160, seed: int = 4) -> list:
+    """Crops of an LED four stripe periods tall whose ends (12 rows each) are dark: six or seven edges a
+    frame. The exposure is 0.4 periods (a box of 16 rows), whose ramps keep the spectrum's strongest line
+    at the period in so short a profile."""
+    from scipy.ndimage import uniform_filter1d
+
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n_frames):
+        phase = rng.uniform(0, period_rows)
+        level = np.where(np.mod(np.arange(rows) + phase, period_rows) < period_rows / 2, 200.0, 30.0)
+        level = uniform_filter1d(level, int(0.4 * period_rows))
+        level[:12] = level[-12:] = 30.0
+        out.append(np.clip(np.rint(level[:, None] + rng.normal(0, 3, (rows, 24))), 0, 255).astype(np.uint8))
+    return out
+
+
+def test_frames_of_six_or_seven_edges_give_the_row_time_when_most_agree():
+    from decoder.rowtime import FEW_EDGES, MIN_EDGES
+
+    frames = _short_square_frames(3, seed=49)  # a draw whose every frame reads six edges (checked below)
+    edges = [profile_period_rows(RowProfile(0, f.mean(axis=1), np.full(f.shape[0], 3 / np.sqrt(24))), FEW_EDGES)
+             for f in frames]
+    assert all(e is not None and FEW_EDGES <= e[2] < MIN_EDGES for e in edges)  # no frame has eight
+    clock_hz = 1000.0  # 40 rows a period: a row time of 50 us
+    estimate, uncertainty = estimate_row_time(frames, clock_hz)
+    assert estimate == pytest.approx(50e-6, rel=0.005)
+    assert uncertainty > 0
+    # One frame of the few edges among frames that show none is not enough.
+    blank = np.full_like(frames[0], 30)
+    with pytest.raises(RowTimeError):
+        estimate_row_time([frames[0], blank, blank], clock_hz)
