@@ -11,6 +11,7 @@ not identified (and why).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
@@ -24,6 +25,12 @@ from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured,
     noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
+
+
+# Rounds of matching the noise alone once the best round is kept (each
+# renders and measures once more; the first that does not bring the noise
+# nearer ends them).
+NOISE_ROUNDS = 2
 
 
 @dataclass
@@ -131,7 +138,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
                            region=target.region, start=target.stripes, binning=(scene.camera.binning_rows, 0))
         score = mismatch(target, rendered, params.gamma)
         if best is None or score < best[0]:
-            best = (score, params, scene, notes)
+            best = (score, params, scene, notes, rendered)
         if k == iterations:
             break
         params = corrected(params, noise, target, rendered)
@@ -140,7 +147,23 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
             f"(mismatch of the last {score:.3g})")
     assert best is not None  # the loop runs at least once
-    _, params, scene, notes = best
+    _, params, scene, notes, rendered = best
+    # The rounds move every parameter at once, and the round kept is the best
+    # in all; its noise is then matched alone: the gain and read noise move,
+    # the linear levels stay (the scene's LED and ambient light follow the gain).
+    for _ in range(NOISE_ROUNDS):
+        trial = dataclasses.replace(params, **{name: getattr(corrected(params, noise, target, rendered), name)
+                                               for name in ("k_lin", "read_lin")})
+        trial_notes: list[str] = []
+        trial_scene = fitted_scene(base, shape, clock_hz, target, trial, trial_notes, colour=colour)
+        images, _ = render_frames(trial_scene, len(frames))
+        trial_rendered = measure(as_fitted(images, channel), clock_hz, row_time=(trial_scene.camera.row_time_s, 0.0),
+                                 region=target.region, start=target.stripes,
+                                 binning=(trial_scene.camera.binning_rows, 0))
+        if noise_mismatch(target, trial_rendered, trial.gamma) >= noise_mismatch(target, rendered, params.gamma):
+            break
+        params, scene, notes, rendered = trial, trial_scene, trial_notes, trial_rendered
+        say(f"noise matched: ISO {scene.camera.iso:.0f}")
     return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes, channel)
 
 
@@ -173,16 +196,21 @@ def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
     squared log ratios of the levels and of the noise at the anchor levels.
     The refinement keeps the round with the least (it never ends worse than
     it began, as measured)."""
-    def log_ratio(x, y):
-        return math.log(level_ratio(x, y))
-
     t, r = target.stripes, rendered.stripes
     scale = max(1.0, t.exposure_rows)  # rows
     total = ((t.exposure_rows - r.exposure_rows) / scale) ** 2 + ((t.smoothing_rows - r.smoothing_rows) / scale) ** 2
-    total += (t.gamma - r.gamma) ** 2 + log_ratio(t.on, r.on) ** 2 + log_ratio(t.off, r.off) ** 2
-    for anchor in noise_anchors(target, gamma):
-        total += 0.25 * log_ratio(anchor_variance(target, anchor), anchor_variance(rendered, anchor)) ** 2
-    return total
+    total += (t.gamma - r.gamma) ** 2 + _log_ratio(t.on, r.on) ** 2 + _log_ratio(t.off, r.off) ** 2
+    return total + 0.25 * noise_mismatch(target, rendered, gamma)
+
+
+def _log_ratio(x: float | None, y: float | None) -> float:
+    return math.log(level_ratio(x, y))
+
+
+def noise_mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
+    """Squared log ratios of the temporal variance at the noise's anchor levels, summed (0: matched)."""
+    return sum(_log_ratio(anchor_variance(target, a), anchor_variance(rendered, a)) ** 2
+               for a in noise_anchors(target, gamma))
 
 
 def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene) -> dict:

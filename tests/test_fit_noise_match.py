@@ -1,0 +1,88 @@
+"""The camera fit's last step: the noise matched alone, the levels kept."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import rollsim.fit.refine as refine
+from rollsim.fit import compare, fit_camera
+from rollsim.fit.fitted_scene import fitted_scene
+from rollsim.fit.refine import noise_mismatch
+from rollsim.render import render_frames
+from rollsim.scene import load_scene
+
+BASE = "paper-geometric"
+HIDDEN = ["link.pattern=square", "link.clock_hz=4000", "seed=3", "camera.width_px=480", "camera.height_px=360",
+          "camera.row_time_us=31.7", "camera.exposure_us=140", "camera.iso=4000", "camera.read_noise_e=3",
+          "led.size_mm=2.4", "led.position_px=[250.3,170.6]", "led.luminous_intensity_cd=0.0012",
+          "effects.tone_curve.curve=srgb", "effects.isp_smoothing.sigma_rows_px=1.2"]
+
+
+@pytest.fixture(scope="module")
+def frames_and_fit():
+    hidden = load_scene(BASE, HIDDEN)
+    images, _ = render_frames(hidden, 4)
+    frames = [np.asarray(im) for im in images]
+    return hidden, frames, fit_camera(frames, hidden.link.clock_hz, load_scene(BASE, []), iterations=0)
+
+
+def test_a_fit_matches_itself_exactly(frames_and_fit):
+    _, _, fit = frames_and_fit
+    assert noise_mismatch(fit.measured, fit.measured, fit.estimates["tone_gamma"].value) == 0.0
+
+
+def test_the_gain_moves_the_noise_and_not_the_levels(frames_and_fit):
+    # The polish changes the gain alone: the fitted scene's LED and ambient
+    # light follow it, so frames rendered without noise keep their levels.
+    hidden, frames, fit = frames_and_fit
+    from rollsim.scene import scene_from_dict
+
+    p = _parameters(fit)
+    profiles = []
+    for gain in (1.0, 2.5):
+        scene = fitted_scene(load_scene(BASE, []), frames[0].shape, hidden.link.clock_hz, fit.measured,
+                             dataclasses.replace(p, k_lin=p.k_lin * gain, read_lin=p.read_lin * gain), [])
+        data = scene.model_dump(mode="json", exclude_none=True)
+        data["effects"].update(shot_noise=False, read_noise=False)
+        images, _ = render_frames(scene_from_dict(data, "quiet"), 1)
+        rows, cols = fit.band
+        profiles.append(np.asarray(images[0], dtype=np.float64)[rows, cols].mean(axis=1))
+    np.testing.assert_allclose(profiles[0], profiles[1], atol=1.0)
+
+
+def test_matching_the_noise_brings_it_nearer_the_frames(frames_and_fit, monkeypatch):
+    hidden, frames, polished = frames_and_fit
+    monkeypatch.setattr(refine, "NOISE_ROUNDS", 0)
+    plain = fit_camera(frames, hidden.link.clock_hz, load_scene(BASE, []), iterations=0)
+
+    def anchors_mismatch(fit):
+        """What the polish lowers: the noise at the anchor levels, frames against the fit's render."""
+        from rollsim.fit.camera import measure
+
+        images, _ = render_frames(fit.scene, len(frames))
+        rendered = measure(fit.grey(images), hidden.link.clock_hz, row_time=(fit.scene.camera.row_time_s, 0.0),
+                           region=fit.measured.region, start=fit.measured.stripes,
+                           binning=(fit.scene.camera.binning_rows, 0))
+        return noise_mismatch(fit.measured, rendered, fit.estimates["tone_gamma"].value)
+
+    assert polished.scene.camera.iso != plain.scene.camera.iso  # the direct estimate's noise was off: it moved
+    assert anchors_mismatch(polished) < anchors_mismatch(plain)
+    ours, theirs = compare(frames, polished).noise["temporal_led_bright"]
+    assert theirs == pytest.approx(ours, rel=0.2)
+    # Only the gain and read noise moved.
+    for name in ("exposure_us", "isp_smoothing_rows", "tone_gamma", "on_level", "row_time_us"):
+        assert polished.estimates[name].value == plain.estimates[name].value
+
+
+def _parameters(fit):
+    """The parameters behind a fit's scene, from its estimates (linear levels, gain per full scale)."""
+    from rollsim.fit.camera import Parameters, gain_per_full_scale
+
+    est = fit.estimates
+    k_lin = gain_per_full_scale(fit.scene)
+    t_row_us = est["row_time_us"].value
+    return Parameters(exposure_rows=est["exposure_us"].value / t_row_us,
+                      smoothing_rows=est["isp_smoothing_rows"].value, gamma=est["tone_gamma"].value,
+                      on_lin=est["on_level"].value, off_lin=est["off_level"].value, k_lin=k_lin,
+                      read_lin=est["read_noise_e"].value * k_lin, row_lin=None, col_lin=None)
