@@ -147,6 +147,7 @@ def test_the_bench_draws_renders_fits_and_scores_hidden_cameras():
     # counts them (the targets themselves are not met yet: docs/fit-camera.md).
     for row in fitted:
         assert abs(row["row_time_error"]) < 0.02 and row["correlation"] > 0.5
+        assert 0.5 < row["correlation_ceiling"] <= 1.0  # the truth rendered again: near 1 where noise is low
     assert summary["within_target"]["row time"] == sum(abs(r["row_time_error"]) <= 0.005 for r in fitted)
     assert summary["all_targets"] == sum(not misses(r) for r in fitted)
     text = format_rows(rows) + "\n" + format_summary(summary)
