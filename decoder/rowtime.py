@@ -444,8 +444,8 @@ def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
         # regular over some frames' rows): the region says nothing, and the
         # frames it read are read again on their brightest region.
         found = [_period_in(_load(item)) if r is not None else f for item, r, f in zip(items, in_region, found)]
-    read = [f for f in found if _enough(f)]
     fewer = [f for f in found if f is not None]
+    read = [f for f in fewer if f[2] >= MIN_EDGES]
     if not read and len(fewer) >= 2 and 2 * len(fewer) >= len(found):
         # Fewer edges only where most frames agree they show the square wave:
         # a code's crop can line up six edges in one frame of several.
