@@ -10,18 +10,22 @@ step from a row to the next within a group is smaller than the step across
 the next group edge in nearly every pair of the two (:func:`paired_steps`),
 where frames without binning make it smaller about half the time. JPEG
 codes blocks of 8 rows, so a step across a block edge is larger whatever the
-binning: those steps are left out. Colour frames are read on their
+binning: those steps are left out; and its error differs from place to place
+in a block, which orders some pairs whatever the binning, so the order must
+hold at every place (a binned sensor's does). Colour frames are read on their
 luminance: JPEG subsamples the chroma over pairs of rows (4:2:0), which
 gives the red and blue planes an order of its own.
 
 Measured on the hidden cameras of ``rollsim bench fit-camera`` (seeds 1–3,
 120 cameras, six frames each, grey or luminance): among the 48 without
-binning, the smaller step lies within a pair of rows in at most 0.80 of
-the pairs (JPEG), and none is read as binned; of the 72 binned, 55 are
-found (23 by identical groups alone), JPEG of quality 60–100 and
-smoothing up to 1.5 rows included. The 17 missed mostly join JPEG under
-quality 90 or smoothing over 0.5 rows (fractions 0.51–0.87), which mix
-the pairs' rows.
+binning, the smaller step lies within a pair of rows in at most 0.71 of
+the pairs at some place (JPEG), and none is read as binned; of the 72
+binned, 51 are found (23 by identical groups alone), JPEG of quality
+60–100 and smoothing up to 1.5 rows included. The 21 missed mostly join
+JPEG under quality 90 or smoothing over 0.5 rows (fractions 0.13–0.89),
+which mix the pairs' rows. Rendered 480×360 frames without binning,
+through JPEG 60 and a row of smoothing, reach 0.78–0.84
+(``tests/test_fit_binning.py``).
 """
 
 from __future__ import annotations
@@ -64,24 +68,29 @@ def paired_steps(steps: np.ndarray) -> tuple[float, int, int]:
     -------
     (fraction, offset, pairs)
         For the offset where the step within is the smaller most often:
-        that fraction of the decided pairs, the offset, and how many pairs
-        were decided (0 and a fraction of 0.5 when none).
+        that fraction of the decided pairs (the least over the places in a
+        JPEG block the pairs start at), the offset, and how many pairs were
+        decided ((0.5, 0, 0) when none).
     """
     steps = np.asarray(steps, dtype=np.float64)
-    best = (0.5, 0, 0)
+    found = []
     for offset in (0, 1):
         within = np.arange(offset, steps.size - 1, 2)
         across = within + 1
         clear = ((within % JPEG_BLOCK_ROWS) != JPEG_BLOCK_ROWS - 1) & ((across % JPEG_BLOCK_ROWS) != JPEG_BLOCK_ROWS - 1)
-        a, b = steps[within[clear]], steps[across[clear]]
-        decided = a != b
+        within, across = within[clear], across[clear]
+        decided = steps[within] != steps[across]
         n = int(np.count_nonzero(decided))
         if n == 0:
             continue
-        fraction = float(np.count_nonzero(a[decided] < b[decided])) / n
-        if fraction > best[0]:
-            best = (fraction, offset, n)
-    return best
+        smaller = steps[within] < steps[across]
+        # Each place in a JPEG block on its own: the codec's error differs
+        # from place to place, which orders some pairs of steps whatever the
+        # binning; a binned sensor orders them at every place.
+        places = (within % JPEG_BLOCK_ROWS)[decided]
+        ordered = smaller[decided]
+        found.append((min(float(np.mean(ordered[places == p])) for p in np.unique(places)), offset, n))
+    return max(found, key=lambda f: f[0]) if found else (0.5, 0, 0)
 
 
 def detect_binning(frames: Sequence[np.ndarray]) -> tuple[int, int]:
