@@ -85,7 +85,8 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         The scene whose optics, LED geometry and distance the fit keeps, and
         whose values stand in for what the frames do not show.
     iterations : int
-        Rounds of refinement by rendering (0: the direct estimates).
+        Rounds of refinement by rendering (0: the direct estimates); the
+        kept round's noise is then matched alone (:data:`NOISE_ROUNDS`).
     progress : callable, optional
         Called with a line at each stage.
 
