@@ -855,7 +855,7 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--scene", default="paper-geometric",
                    help="base scene whose optics, LED geometry and distance are kept (default paper-geometric)")
     p.add_argument("--iterations", type=_non_negative_int, default=4,
-                   help="rounds of refinement by rendering the fit (default 4; 0: direct estimates)")
+                   help="rounds of refinement by rendering the fit (default 4; 0: direct estimates); the noise is then matched alone")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="output directory, made with its missing parents: camera.yaml, fit.json, report.md")
     _add_force(p, "existing camera.yaml, fit.json, report.md, profiles.png and frames.png")
