@@ -8,7 +8,7 @@ import pytest
 import rollsim.fit.refine as refine
 from rollsim.fit import compare, fit_camera
 from rollsim.fit.fitted_scene import fitted_scene
-from rollsim.fit.refine import noise_mismatch
+from rollsim.fit.refine import measure_rendered, noise_mismatch
 from rollsim.render import render_frames
 from rollsim.scene import load_scene
 
@@ -58,12 +58,7 @@ def test_matching_the_noise_brings_it_nearer_the_frames(frames_and_fit, monkeypa
 
     def anchors_mismatch(fit):
         """What the polish lowers: the noise at the anchor levels, frames against the fit's render."""
-        from rollsim.fit.camera import measure
-
-        images, _ = render_frames(fit.scene, len(frames))
-        rendered = measure(fit.grey(images), hidden.link.clock_hz, row_time=(fit.scene.camera.row_time_s, 0.0),
-                           region=fit.measured.region, start=fit.measured.stripes,
-                           binning=(fit.scene.camera.binning_rows, 0))
+        rendered = measure_rendered(fit.scene, len(frames), fit.channel, fit.measured)
         return noise_mismatch(fit.measured, rendered, fit.estimates["tone_gamma"].value)
 
     assert polished.scene.camera.iso != plain.scene.camera.iso  # the direct estimate's noise was off: it moved

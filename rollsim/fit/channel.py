@@ -23,10 +23,15 @@ CANDIDATES = ("luminance", "red", "green", "blue")
 
 def candidate_planes(frame: np.ndarray) -> dict:
     """The grey planes a colour frame (H, W, 3), RGB, offers, float64."""
+    return {name: plane(frame, name) for name in CANDIDATES}
+
+
+def plane(frame: np.ndarray, name: str) -> np.ndarray:
+    """One of :data:`CANDIDATES` of a colour frame (H, W, 3), RGB, as grey (H, W) float64."""
     rgb = np.asarray(frame, dtype=np.float64)
-    planes = {"luminance": rgb @ np.asarray(LUMA_WEIGHTS)}
-    planes.update({name: rgb[:, :, i] for i, name in enumerate(CANDIDATES[1:])})
-    return planes
+    if name == "luminance":
+        return rgb @ np.asarray(LUMA_WEIGHTS)
+    return rgb[:, :, CANDIDATES.index(name) - 1]
 
 
 def stripe_contrast_to_noise(planes: Sequence[np.ndarray], period_rows: float) -> float:

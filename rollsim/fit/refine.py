@@ -102,8 +102,6 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     """
     from decoder import estimate_row_time
 
-    from rollsim.render import render_frames
-
     say = progress or (lambda line: None)
     frames = [np.asarray(f) for f in frames]
     if len(frames) < 2:
@@ -117,14 +115,15 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     stripes_at = moving_stripes(eight_bit)
     del eight_bit
     colour = len(shape) == 3
-    # Binned rows are seen on the luminance of colour frames: JPEG's chroma
-    # is subsampled over pairs of rows (rollsim.fit.binning).
-    binning = detect_binning(as_fitted(frames, "luminance" if colour else "grey"))
     if colour:
+        # Binned rows are seen on the luminance of colour frames: JPEG's
+        # chroma is subsampled over pairs of rows (rollsim.fit.binning).
+        binning = detect_binning(as_fitted(frames, "luminance"))
         channel, frames = choose_channel(frames, 2.0 / (clock_hz * row_time[0]))
         shape = shape[:2]
     else:
         channel, frames = "grey", as_fitted(frames, "grey")
+        binning = detect_binning(frames)
     say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px ({channel}); "
         "fitting the stripes and the noise")
     target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning)
@@ -134,9 +133,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=colour)
     best = None
     for k in range(iterations + 1):
-        images, _ = render_frames(scene, len(frames))
-        rendered = measure(as_fitted(images, channel), clock_hz, row_time=(scene.camera.row_time_s, 0.0),
-                           region=target.region, start=target.stripes, binning=(scene.camera.binning_rows, 0))
+        rendered = measure_rendered(scene, len(frames), channel, target)
         score = mismatch(target, rendered, params.gamma)
         if best is None or score < best[0]:
             best = (score, params, scene, notes, rendered)
@@ -157,15 +154,23 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
                                                for name in ("k_lin", "read_lin")})
         trial_notes: list[str] = []
         trial_scene = fitted_scene(base, shape, clock_hz, target, trial, trial_notes, colour=colour)
-        images, _ = render_frames(trial_scene, len(frames))
-        trial_rendered = measure(as_fitted(images, channel), clock_hz, row_time=(trial_scene.camera.row_time_s, 0.0),
-                                 region=target.region, start=target.stripes,
-                                 binning=(trial_scene.camera.binning_rows, 0))
+        trial_rendered = measure_rendered(trial_scene, len(frames), channel, target)
         if noise_mismatch(target, trial_rendered, trial.gamma) >= noise_mismatch(target, rendered, params.gamma):
             break
         params, scene, notes, rendered = trial, trial_scene, trial_notes, trial_rendered
         say(f"noise matched: ISO {scene.camera.iso:.0f}")
     return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes, channel)
+
+
+def measure_rendered(scene: Scene, n_frames: int, channel: str, target: Measured) -> Measured:
+    """The fit's statistics of ``n_frames`` frames rendered from ``scene``, taken as
+    the frames' were: in their channel, region and stripe fit's start, with the
+    binning rendered (groups from row 0)."""
+    from rollsim.render import render_frames
+
+    images, _ = render_frames(scene, n_frames)
+    return measure(as_fitted(images, channel), scene.link.clock_hz, row_time=(scene.camera.row_time_s, 0.0),
+                   region=target.region, start=target.stripes, binning=(scene.camera.binning_rows, 0))
 
 
 def moving_stripes(frames: Sequence[np.ndarray]) -> tuple[slice, float] | None:
@@ -184,11 +189,11 @@ def moving_stripes(frames: Sequence[np.ndarray]) -> tuple[slice, float] | None:
 
 def as_fitted(images, channel: str) -> list[np.ndarray]:
     """Rendered frames as the fit sees the frames: grey, or the colour frames' chosen plane."""
-    from rollsim.fit.channel import candidate_planes
+    from rollsim.fit.channel import plane
 
     if channel == "grey":
         return [np.asarray(im, dtype=np.float64) for im in images]
-    return [candidate_planes(np.asarray(im))[channel] for im in images]
+    return [plane(im, channel) for im in images]
 
 
 def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
