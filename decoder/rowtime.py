@@ -2,7 +2,8 @@
 
 An LED sending ON on even chips and OFF on odd chips (rollsim's ``square``
 pattern, period 2 / f) paints stripes of period P rows, so the row time is
-t_row = (2 / f) / P. P is found in two steps:
+t_row = (2 / f) / P. P is found in two steps, on the profile's rows within
+the LED's levels (:func:`led_rows`: not its disk's rim):
 
 1. the peak of the profile's spectrum (zero-padded FFT, parabolic
    interpolation), a first guess good to a few percent;
@@ -87,6 +88,15 @@ MAX_PEAKS_PER_PERIOD = 1.25
 # Frames from which the stripes' region is found (decoder.stripe_region):
 # a dozen give its blocks' products a standard error small enough.
 REGION_FRAMES = 12
+# The LED's own rows: a region's profile starts and ends on its disk's rim,
+# a step from the background far larger than the stripes when they are faint
+# (a long exposure). The binariser's window (1.5 periods either side) would
+# take the rim for the stripes' envelope, and read the LED as one ON run. The
+# ends beyond the levels of the profile's central half, by more than
+# LEVEL_MARGIN of their range or LEVEL_MARGIN_SIGMAS of the noise, are the
+# background's; at most a quarter of the profile at each end is left out.
+LEVEL_MARGIN = 0.1
+LEVEL_MARGIN_SIGMAS = 4.0
 
 
 class RowTimeError(ValueError):
@@ -346,12 +356,44 @@ def frame_period_rows(image, min_edges: int = MIN_EDGES) -> tuple[float, float, 
     return profile_period_rows(row_profile(blocks, regions[0]), min_edges)
 
 
+def led_rows(values: np.ndarray, noise: np.ndarray) -> slice:
+    """The rows of a profile between its ends' background: see :data:`LEVEL_MARGIN`.
+
+    Parameters
+    ----------
+    values, noise : ndarray, shape (n,)
+        Row means and their noise (DN).
+
+    Returns
+    -------
+    slice
+        Rows from the first to the last within the central half's levels
+        (its 2nd to 98th percentile, widened by the margin).
+    """
+    values = np.asarray(values, dtype=np.float64)
+    n = values.size
+    if n < 8:
+        return slice(0, n)
+    low, high = np.percentile(values[n // 4:n - n // 4], [2, 98])
+    sigma = float(np.median(np.asarray(noise, dtype=np.float64))) if np.size(noise) else 0.0
+    margin = max(LEVEL_MARGIN * float(high - low), LEVEL_MARGIN_SIGMAS * sigma)
+    inside = (values >= low - margin) & (values <= high + margin)
+    inside[n // 4:n - n // 4] = True
+    first = int(np.argmax(inside))
+    last = n - int(np.argmax(inside[::-1]))
+    return slice(first, last)
+
+
 def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES) -> tuple[float, float, int] | None:
     """Square-wave stripe period (rows) of a row profile: its spectrum's guess, refined over its edges.
+
+    The profile's ends beyond the LED's levels (:func:`led_rows`) are left out.
 
     Returns ``(period_rows, standard_error_rows, n_edges)`` as
     :func:`edge_period_rows` (at least ``min_edges`` edges), or None.
     """
+    rows = led_rows(profile.values, profile.noise)
+    profile = RowProfile(profile.first_row + rows.start, profile.values[rows], profile.noise[rows], profile.channel)
     guess = spectral_period_rows(profile.values)
     if guess is None:
         return None

@@ -461,7 +461,7 @@ def cmd_fit_camera(args) -> int:
           f"LED at ({est['led_centre_x_px'].value:.1f}, {est['led_centre_y_px'].value:.1f}) px, "
           f"diameter {est['led_diameter_px'].value:.1f} px")
     if fit.channel != "grey":
-        print(f"colour frames: fitted on their {fit.channel}" + (" channel" if fit.channel != "luminance" else ""))
+        print(f"colour frames: fitted on their {fit.channel} plane")
     missing = [name for name, e in est.items() if e.source == "not identified"]
     if missing:
         print(f"not identified from these frames (the base scene's values, reasons in report.md): {', '.join(missing)}")

@@ -409,6 +409,11 @@ def direct(m: Measured, base: Scene) -> tuple[Parameters, NoiseFit]:
                       noise.read_lin, row_lin, col_lin), noise
 
 
+# The rendered stripes' ON level within this factor of the frames' for the
+# shape (exposure, smoothing, tone curve) to be corrected by :func:`corrected`.
+LEVEL_MATCH = 2.0
+
+
 def level_ratio(x: float | None, y: float | None) -> float:
     """x / y of two positive statistics; 1 (no change) when either is missing or not positive."""
     return x / y if x is not None and y is not None and y > 0 and x > 0 else 1.0
@@ -446,10 +451,14 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
         a_new = (read_e * b_new) ** 2
     else:
         a_new, b_new = a, b
+    # The shape estimators' biases depend on the stripes' level: compared at
+    # levels far apart (a colour plane's response to the LED not yet
+    # matched), they move the shape the wrong way. The levels move first.
+    shape = 1.0 / LEVEL_MATCH <= level_ratio(t.on, r.on) <= LEVEL_MATCH
     return Parameters(
-        exposure_rows=max(0.05, p.exposure_rows + t.exposure_rows - r.exposure_rows),
-        smoothing_rows=max(0.0, p.smoothing_rows + t.smoothing_rows - r.smoothing_rows),
-        gamma=min(MAX_GAMMA, max(MIN_GAMMA, p.gamma + t.gamma - r.gamma)),
+        exposure_rows=max(0.05, p.exposure_rows + t.exposure_rows - r.exposure_rows) if shape else p.exposure_rows,
+        smoothing_rows=max(0.0, p.smoothing_rows + t.smoothing_rows - r.smoothing_rows) if shape else p.smoothing_rows,
+        gamma=min(MAX_GAMMA, max(MIN_GAMMA, p.gamma + t.gamma - r.gamma)) if shape else p.gamma,
         on_lin=min(60.0, p.on_lin * level_ratio(t.on, r.on)),
         off_lin=p.off_lin * level_ratio(t.off, r.off),
         k_lin=b_new,

@@ -19,7 +19,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from rollsim.fit.binning import detect_binning
-from rollsim.fit.channel import choose_channel
+from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
     anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, measure, \
     noise_anchors
@@ -41,7 +41,7 @@ class CameraFit:
     scene: Scene
     measured: Measured  # the frames' statistics the fit started from
     notes: list = field(default_factory=list)
-    channel: str = "grey"  # what of the frames was fitted: grey, or a colour frame's luminance or channel
+    channel: str = "grey"  # what of the frames was fitted: grey, or a colour frame's plane (red, green, blue)
 
     def grey(self, frames: Sequence[np.ndarray]) -> list[np.ndarray]:
         """``frames`` as the fit saw them (the chosen plane of colour frames), float64."""
@@ -76,9 +76,9 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     frames : sequence of ndarray
         At least two 8-bit frames of one camera, consecutive, grey (H, W) or
         RGB (H, W, 3), of an LED sending ON and OFF chips alternately at
-        ``clock_hz``. Colour frames are fitted on their luminance or the
-        channel with the best stripe contrast-to-noise
-        (:func:`rollsim.fit.channel.choose_channel`), and the fit says which.
+        ``clock_hz``. Colour frames are fitted in the colour plane whose
+        stripes tell the exposure most precisely (:func:`best_plane` of
+        :func:`rollsim.fit.channel.plane_shortlist`), and the fit says which.
     clock_hz : float
         The chip rate, Hz.
     base : Scene
@@ -119,14 +119,18 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         # Binned rows are seen on the luminance of colour frames: JPEG's
         # chroma is subsampled over pairs of rows (rollsim.fit.binning).
         binning = detect_binning(as_fitted(frames, "luminance"))
-        channel, frames = choose_channel(frames, 2.0 / (clock_hz * row_time[0]))
         shape = shape[:2]
+        say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (colour); "
+            "fitting the stripes and the noise in each colour plane")
+        channel, frames, target = best_plane(plane_shortlist(frames, 2.0 / (clock_hz * row_time[0])),
+                                             lambda planes: measure(planes, clock_hz, row_time=row_time,
+                                                                    stripes_at=stripes_at, binning=binning))
     else:
         channel, frames = "grey", as_fitted(frames, "grey")
         binning = detect_binning(frames)
-    say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px ({channel}); "
-        "fitting the stripes and the noise")
-    target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning)
+        say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (grey); "
+            "fitting the stripes and the noise")
+        target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning)
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
     params, noise = direct(target, base)
     notes: list[str] = []
@@ -160,6 +164,43 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         params, scene, notes, rendered = trial, trial_scene, trial_notes, trial_rendered
         say(f"noise matched: ISO {scene.camera.iso:.0f}")
     return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes, channel)
+
+
+def exposure_precision(m: Measured) -> float:
+    """The stripe fit's relative one-sigma uncertainty of the exposure (inf when not known)."""
+    s = m.stripes
+    sd = s.uncertainties.get("exposure_rows", math.nan)
+    if not (math.isfinite(sd) and sd > 0 and s.exposure_rows > 0):
+        return math.inf  # a singular fit (a flat plane) tells nothing
+    return sd / s.exposure_rows
+
+
+def best_plane(shortlist: Sequence[tuple[str, list[np.ndarray]]],
+               measure_plane: Callable[[list[np.ndarray]], Measured]) -> tuple[str, list[np.ndarray], Measured]:
+    """The colour plane whose stripe fit tells the exposure most precisely
+    (:func:`exposure_precision`), its frames and their statistics.
+
+    Its uncertainty grows both with faint stripes and with a model that
+    does not hold them (a demosaiced plane's edges): the criterion a
+    contrast-to-noise ratio alone misses. A plane the fit cannot read (no
+    LED in it) is passed over; the last such error is raised when every
+    plane fails.
+    """
+    best: tuple[float, str, list[np.ndarray], Measured] | None = None
+    error: ValueError | None = None
+    for name, planes in shortlist:
+        try:
+            m = measure_plane(planes)
+        except ValueError as exc:
+            error = exc
+            continue
+        precision = exposure_precision(m)
+        if best is None or precision < best[0]:
+            best = (precision, name, planes, m)
+    if best is None:
+        assert error is not None  # the shortlist holds the best plane at least
+        raise error
+    return best[1], best[2], best[3]
 
 
 def measure_rendered(scene: Scene, n_frames: int, channel: str, target: Measured) -> Measured:

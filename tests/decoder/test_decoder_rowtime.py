@@ -201,3 +201,40 @@ def test_frames_of_six_or_seven_edges_give_the_row_time_when_most_agree():
     blank = np.full_like(frames[0], 30)
     with pytest.raises(RowTimeError):
         estimate_row_time([frames[0], blank, blank], clock_hz)
+
+
+def _faint_stripes_on_a_disk(period_rows: float, rows: int = 190, rim_rows: int = 6, seed: int = 0) -> np.ndarray:
+    """A row profile: a bright LED (about 108 of 255) carrying stripes of 10 levels
+    (a long exposure), its disk's rim a step to a black background at both ends."""
+    from scipy.ndimage import uniform_filter1d
+
+    rng = np.random.default_rng(seed)
+    phase = rng.uniform(0, period_rows)
+    stripes = np.where(np.mod(np.arange(rows) + phase, period_rows) < period_rows / 2, 113.0, 103.0)
+    level = uniform_filter1d(stripes, int(0.3 * period_rows))
+    level[:rim_rows] = level[-rim_rows:] = 4.0
+    level[rim_rows - 1] = level[-rim_rows] = 55.0  # the rim's blur
+    return level + rng.normal(0.0, 0.5, rows)
+
+
+@pytest.mark.parametrize("period_rows", [23.0, 29.0, 31.5])
+def test_faint_stripes_between_a_disk_rim_give_their_period(period_rows):
+    # The rim's step (100 levels) is ten times the stripes': within 1.5
+    # periods of either end the binariser's envelope would be the rim's.
+    from decoder.rowtime import led_rows
+
+    values = _faint_stripes_on_a_disk(period_rows)
+    noise = np.full(values.size, 0.5)
+    rows = led_rows(values, noise)
+    assert rows.start == 6 and rows.stop == values.size - 6
+    found = profile_period_rows(RowProfile(0, values, noise))
+    assert found is not None and found[0] == pytest.approx(period_rows, rel=0.005)
+
+
+def test_a_profile_within_its_levels_keeps_every_row():
+    # Dark OFF stripes on a dark background: the ends are the OFF level, not beyond it.
+    from decoder.rowtime import led_rows
+
+    values = np.where(np.mod(np.arange(200), 20) < 10, 200.0, 10.0)
+    values[:7] = 10.0
+    assert led_rows(values, np.full(200, 1.0)) == slice(0, 200)
