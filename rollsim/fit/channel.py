@@ -52,8 +52,9 @@ def stripe_contrast_to_noise(planes: Sequence[np.ndarray], period_rows: float) -
 # The green plane is not fitted when its stripes' contrast-to-noise (their
 # amplitude over one row's noise) is below this: a fit to stripes fainter
 # than a few sigma a row can look precise and still be wrong (rollsim bench
-# fit-camera, seed 1: green planes at 0.5 and 0.7 fitted to correlations
-# of 0.08 and −0.4; those at 5 and more told the exposure within 7 %).
+# fit-camera, seed 1: green planes at 0.5 and 0.7 won on precision and
+# fitted to correlations of 0.08 and −0.4; over seeds 1–2, the five green
+# planes at 5 or more that won told the exposure within 5 % directly).
 MIN_SAMPLED_CNR = 3.0
 COLOUR_PLANES = ("red", "green", "blue")
 # A Bayer sensor's best-sampled plane: half its pixels, on every row.
