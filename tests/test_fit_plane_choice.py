@@ -109,3 +109,21 @@ def test_the_shape_moves_only_once_the_levels_match(rendered_on, moves):
     assert q.on_lin == pytest.approx(min(60.0, 0.5 * 0.5 / rendered_on))
     # The exposure moves by the difference (3 − 4 rows) only at matched levels.
     assert q.exposure_rows == pytest.approx(2.0 if moves else 3.0)
+
+
+@pytest.mark.parametrize("plane, site", [("red", (0, 0)), ("green", (0, 1)), ("blue", (1, 1))])
+def test_a_planes_response_is_the_renders_own_rate_in_that_channel(plane, site):
+    # The fitted scene turns a plane's levels into light with these factors:
+    # they must be what the render gives a pixel of that channel (RGGB).
+    from rollsim.fit.fitted_scene import plane_response
+    from rollsim.optics.scene_light import ambient_electron_rates, led_electron_rate
+    from rollsim.render.stages import prepare_setup
+    from rollsim.render_contract.setup import build_setup
+
+    scene = load_scene(BASE_SCENE, ["camera.output=rgb8", "effects.bayer.pattern=RGGB", "environment.ambient_lux=300"])
+    setup = prepare_setup(build_setup(scene))
+    led_factor, ambient_factor = plane_response(scene, plane)
+    assert led_factor * led_electron_rate(scene) == pytest.approx(float(setup.led_e_per_s[site]), rel=1e-9)
+    assert ambient_factor * ambient_electron_rates(scene)[1] == pytest.approx(float(setup.face_e_per_s[site]),
+                                                                              rel=1e-9)
+    assert plane_response(scene, "grey") == (1.0, 1.0)

@@ -55,6 +55,35 @@ def led_geometry(m: Measured, scene: Scene) -> dict:
             "led_diameter_px": Estimate(d, None, "px", f"{COVER_DIAGONALS} frame diagonals", NOT_IDENTIFIED, why)}
 
 
+def plane_response(scene: Scene, plane: str) -> tuple[float, float]:
+    """How much of the LED's and of the ambient light's monochrome electron rate a colour plane sees.
+
+    The scene's electron rates (:func:`rollsim.optics.scene_light.led_electron_rate`,
+    :func:`rollsim.optics.scene_light.ambient_electron_rates`) take the QE
+    at the LED's peak and one photon count per lumen; through the Bayer
+    filter each plane sees its channel's integral over the spectrum
+    (:mod:`rollsim.optics.spectral`), the render's own rates. ``plane``:
+    ``red``, ``green`` or ``blue`` (a grey frame's ``grey``: (1, 1)).
+
+    Returns
+    -------
+    (led_factor, ambient_factor) : (float, float)
+    """
+    if plane not in ("red", "green", "blue"):
+        return 1.0, 1.0
+    from rollsim.optics.radiometry import photons_per_lumen_illuminant, photons_per_lumen_monochromatic
+    from rollsim.optics.spectral import illuminant_electrons_per_lumen, led_electrons_per_lumen
+
+    bayer, qe = scene.effects.bayer, scene.camera.qe
+    c = ("red", "green", "blue").index(plane)
+    led = led_electrons_per_lumen(scene.led.peak_wavelength_nm, bayer.led_fwhm_nm, bayer.sensitivities, qe,
+                                  bayer.spectral_step_nm)[c]
+    illuminant = scene.environment.ambient_illuminant
+    ambient = illuminant_electrons_per_lumen(illuminant, bayer.sensitivities, qe, bayer.spectral_step_nm)[c]
+    return (float(led) / (qe * photons_per_lumen_monochromatic(scene.led.peak_wavelength_nm)),
+            float(ambient) / (qe * photons_per_lumen_illuminant(illuminant)))
+
+
 def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, profile) -> dict:
     effects = {name: value for name, value in base_effects.items() if name not in FITTED_EFFECTS}
     for name in ("row_noise", "column_fpn"):  # kept from the base scene where the frames give none
@@ -76,13 +105,16 @@ def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, 
 
 
 def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters, notes: list,
-                 colour: bool = False) -> Scene:
+                 plane: str = "grey") -> Scene:
     """The base scene with the fitted camera, ISP, LED image and ambient light.
 
-    ``colour``: the frames were colour; the scene renders them through a
+    ``plane``: what of the frames was fitted, ``grey`` or a colour plane
+    (``red``, ``green``, ``blue``). Colour frames are rendered through a
     Bayer filter and demosaicing (RGGB, the effect's defaults), whose blur
-    and noise the fit then sees as the frames' were seen.
+    and noise the fit then sees as the frames' were seen, and the fitted
+    levels are those of the plane's channel (:func:`plane_response`).
     """
+    colour = plane != "grey"
     from rollsim.optics import led_image_size_px
     from rollsim.optics.scene_light import ambient_electron_rates
     from rollsim.render.tuning import on_level_electrons
@@ -137,7 +169,8 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     sized = scene_from_dict(data, "fitted scene")
     exposure_s = sized.camera.exposure_s
     k_lin = gain_per_full_scale(sized)
-    bg_rate, face_rate = ambient_electron_rates(sized)
+    led_factor, ambient_factor = plane_response(sized, plane)
+    bg_rate, face_rate = (rate * ambient_factor for rate in ambient_electron_rates(sized))
     if m.background is not None:
         wanted, rate = float(linear_level(m.background, gamma)) / k_lin, bg_rate
     else:
@@ -150,8 +183,9 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     sized = scene_from_dict(data, "fitted scene")
     # The linear ON level over the LED's rows; the intensity is linear in it.
     on_e = p.on_lin / k_lin
-    led_e = on_level_electrons(sized) - (ambient_electron_rates(sized)[1] * exposure_s)
-    face_e = on_level_electrons(sized) - led_e
+    mono_face_e = ambient_electron_rates(sized)[1] * exposure_s
+    led_e = (on_level_electrons(sized) - mono_face_e) * led_factor
+    face_e = mono_face_e * ambient_factor
     if led_e > 0 and on_e > face_e:
         data["led"]["luminous_intensity_cd"] = min(MAX_INTENSITY_CD,
                                                    sized.led.luminous_intensity_cd * (on_e - face_e) / led_e)

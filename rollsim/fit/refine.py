@@ -134,7 +134,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
     params, noise = direct(target, base)
     notes: list[str] = []
-    scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=colour)
+    scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel)
     best = None
     for k in range(iterations + 1):
         rendered = measure_rendered(scene, len(frames), channel, target)
@@ -145,7 +145,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             break
         params = corrected(params, noise, target, rendered)
         notes = []
-        scene = fitted_scene(base, shape, clock_hz, target, params, notes, colour=colour)
+        scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel)
         say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
             f"(mismatch of the last {score:.3g})")
     assert best is not None  # the loop runs at least once
@@ -157,7 +157,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         trial = dataclasses.replace(params, **{name: getattr(corrected(params, noise, target, rendered), name)
                                                for name in ("k_lin", "read_lin")})
         trial_notes: list[str] = []
-        trial_scene = fitted_scene(base, shape, clock_hz, target, trial, trial_notes, colour=colour)
+        trial_scene = fitted_scene(base, shape, clock_hz, target, trial, trial_notes, plane=channel)
         trial_rendered = measure_rendered(trial_scene, len(frames), channel, target)
         if noise_mismatch(target, trial_rendered, trial.gamma) >= noise_mismatch(target, rendered, params.gamma):
             break
