@@ -268,8 +268,7 @@ def correlation_ceiling(cam: HiddenCamera, frames: Sequence[np.ndarray], fit) ->
 
     again, _ = render_frames(hidden_scene(replace(cam, seed=cam.seed + 1)), len(frames))
     rows, cols = fit.band
-    period = 2.0 / (fit.scene.link.clock_hz * fit.scene.camera.row_time_s)  # the fit's, as its comparison
-    return float(min(aligned_correlation(a[rows, cols].mean(axis=1), b[rows, cols].mean(axis=1), period)
+    return float(min(aligned_correlation(a[rows, cols].mean(axis=1), b[rows, cols].mean(axis=1), fit.period_rows)
                      for a, b in zip(fit.grey(frames), fit.grey(again))))
 
 

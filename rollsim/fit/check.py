@@ -97,10 +97,9 @@ def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
     images, _ = render_frames(fit.scene, len(frames))
     rendered = fit.grey(images)
     rows, cols = fit.band
-    period = 2.0 / (fit.scene.link.clock_hz * fit.scene.camera.row_time_s)
     real = [f[rows, cols].mean(axis=1) for f in frames]
     sim = [f[rows, cols].mean(axis=1) for f in rendered]
-    correlations = tuple(aligned_correlation(a, b, period) for a, b in zip(real, sim))
+    correlations = tuple(aligned_correlation(a, b, fit.period_rows) for a, b in zip(real, sim))
     ours, theirs = output_noise(frames, fit), output_noise(rendered, fit)
     crop = led_crop(fit, frames[0].shape)
     pair = (np.clip(frames[0][crop], 0, 255).astype(np.uint8), np.clip(rendered[0][crop], 0, 255).astype(np.uint8))

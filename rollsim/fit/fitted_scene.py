@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from rollsim.fit.camera import NOT_IDENTIFIED, Estimate, Measured, Parameters, gain_per_full_scale
+from rollsim.fit.channel import COLOUR_PLANES
 from rollsim.fit.noise import linear_level
 from rollsim.scene.model import Scene
 
@@ -69,13 +70,13 @@ def plane_response(scene: Scene, plane: str) -> tuple[float, float]:
     -------
     (led_factor, ambient_factor) : (float, float)
     """
-    if plane not in ("red", "green", "blue"):
+    if plane not in COLOUR_PLANES:
         return 1.0, 1.0
     from rollsim.optics.radiometry import photons_per_lumen_illuminant, photons_per_lumen_monochromatic
     from rollsim.optics.spectral import illuminant_electrons_per_lumen, led_electrons_per_lumen
 
     bayer, qe = scene.effects.bayer, scene.camera.qe
-    c = ("red", "green", "blue").index(plane)
+    c = COLOUR_PLANES.index(plane)
     led = led_electrons_per_lumen(scene.led.peak_wavelength_nm, bayer.led_fwhm_nm, bayer.sensitivities, qe,
                                   bayer.spectral_step_nm)[c]
     illuminant = scene.environment.ambient_illuminant
@@ -114,11 +115,12 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     and noise the fit then sees as the frames' were seen, and the fitted
     levels are those of the plane's channel (:func:`plane_response`).
     """
-    colour = plane != "grey"
     from rollsim.optics import led_image_size_px
     from rollsim.optics.scene_light import ambient_electron_rates
     from rollsim.render.tuning import on_level_electrons
     from rollsim.scene import scene_from_dict
+
+    colour = plane != "grey"
 
     data = base.model_dump(mode="json", exclude_none=True)
     camera = data["camera"]

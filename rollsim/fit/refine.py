@@ -53,6 +53,11 @@ class CameraFit:
         return self.measured.region.band
 
     @property
+    def period_rows(self) -> float:
+        """The fitted scene's stripe period, rows: 2 / (clock · row time)."""
+        return 2.0 / (self.scene.link.clock_hz * self.scene.camera.row_time_s)
+
+    @property
     def background_block(self) -> tuple[slice, slice] | None:
         """Rows and columns of the background region (None: the LED fills the frame)."""
         return self.measured.region.block
