@@ -274,16 +274,18 @@ def _progress_bar(quiet: bool, **options):
 
 
 def cmd_render(args) -> int:
-    """Render a scene to PNG frames, truth.jsonl and scene.resolved.yaml."""
+    """Render a scene to PNG frames (or one video), truth.jsonl and scene.resolved.yaml."""
     from rollsim.render.writer import render_to_dir
 
+    video = _video_settings(args)
     scene = _load_scene_args(args)
     with _progress_bar(args.quiet, total=scene.frames, unit="frame", desc="render") as bar:
         summary = render_to_dir(
             scene, Path(args.out), scene.frames, force=args.force, workers=args.workers,
-            progress=lambda n: bar.update(1), inputs=[_scene_path(args)],
+            progress=lambda n: bar.update(1), inputs=[_scene_path(args)], video=video,
         )
-    print(f"wrote {summary.frames} frames of {scene.name} to {summary.out_dir} ({summary.workers} workers)")
+    what = "frames" if video is None else f"frames ({video.codec} {video.rate_control()}, {video.chroma}) in a video"
+    print(f"wrote {summary.frames} {what} of {scene.name} to {summary.out_dir} ({summary.workers} workers)")
     return EXIT_OK
 
 
@@ -310,15 +312,39 @@ def _decode_settings(args, run_dir: Path):
     return settings_from_scene(scene, args.clock_hz, args.row_time_us, args.exposure_us)
 
 
+def _video_frames_asked(video: Path, start: int, count: Optional[int]) -> Optional[int]:
+    """How many of a video's frames ``--start``/``--frames`` ask for (None: not known from the header);
+    a range beyond the header's frame count is refused here, before any decoding."""
+    from rollsim.video.read import probe_video
+
+    info = probe_video(video)
+    if info.frames is not None and start + (count or 1) > info.frames:
+        raise RollsimError(f"{video}: holds {info.frames} frames; --start {start} --frames {count or 1} asks beyond")
+    if count is not None:
+        return count
+    return None if info.frames is None else info.frames - start
+
+
+def _add_video_range(parser: argparse.ArgumentParser, default: str = "to the end") -> None:
+    """--start and --frames: the frames of a video to read (``default`` says how many without --frames)."""
+    parser.add_argument("--start", type=_non_negative_int, default=0, help="video input: first frame to read (default 0)")
+    parser.add_argument("--frames", dest="video_frames", type=_positive_int, default=None,
+                        help=f"video input: frames to read (default: {default})")
+
+
 def cmd_decode(args) -> int:
     """Decode the frames of a directory into DIR/decoded.jsonl."""
     from tqdm import tqdm
 
-    from rollsim.stages.decode import decode_directory, frame_files
+    from rollsim.stages.decode import decode_directory, frame_files, frame_video
 
     run_dir = Path(args.dir)
-    n_files = len(frame_files(run_dir))  # first: a missing directory is named as such
-    settings = _decode_settings(args, run_dir)
+    video = frame_video(run_dir)
+    if video is None:
+        n_files: Optional[int] = len(frame_files(run_dir))  # first: a missing directory is named as such
+    else:
+        n_files = _video_frames_asked(video, args.start, args.video_frames)
+    settings = _decode_settings(args, video.parent if video == run_dir else run_dir)
     if args.decoder is not None:
         from dataclasses import replace
 
@@ -328,11 +354,14 @@ def cmd_decode(args) -> int:
         settings = replace(settings, decoder=args.decoder)
     workers = args.workers or _default_workers()
     with tqdm(total=n_files, unit="frame", desc="decode", disable=args.quiet or None) as bar:
+        notes: list[str] = []
         summary = decode_directory(
             run_dir, settings, workers=workers, force=args.force, timeout_s=args.decoder_timeout,
             on_error=lambda e: tqdm.write(f"rollsim: skipped frame {e['frame']}: {e['error']}", file=sys.stderr),
-            progress=lambda n: bar.update(1),
+            progress=lambda n: bar.update(1), start=args.start, count=args.video_frames, notes=notes,
         )
+    for line in notes:
+        print(f"rollsim: note: {line}", file=sys.stderr)
     print(
         f"decoded {summary.frames} frames of {run_dir}: {summary.sdus} PHY-SDUs, {summary.sdus_ok} passed the check, "
         f"{len(summary.unreadable)} frames unreadable -> {run_dir / 'decoded.jsonl'}"
@@ -386,6 +415,40 @@ def _png_paths(items: Sequence[str]) -> list[Path]:
     return paths
 
 
+# Frames fit-camera reads from a video without --frames: its fit uses six
+# frames for the stripes and frame pairs for the noise; more add time.
+VIDEO_FIT_FRAMES = 10
+
+
+def _input_video(items: Sequence[str]) -> Optional[Path]:
+    """The video file that the FRAMES arguments stand for (one file, or a directory holding one), else None."""
+    from rollsim.stages.decode import frame_video
+
+    if len(items) != 1:
+        for item in items:
+            if frame_video(Path(item)) is not None and Path(item).is_file():
+                raise RollsimError(f"{item}: a video is read alone; give it as the only FRAMES argument")
+        return None
+    return frame_video(Path(items[0]))
+
+
+def _video_input_frames(video: Path, args, default_count: Optional[int], notes: list):
+    """The frames of ``video`` that --start/--frames (or ``default_count``) pick, streamed, upright (--rotate)."""
+    from rollsim.video.read import read_video_frames
+
+    count = args.video_frames if args.video_frames is not None else default_count
+    _video_frames_asked(video, args.start, count)
+    return read_video_frames(video, args.start, count, rotate_deg=args.rotate, notes=notes)
+
+
+def _add_video_input(parser: argparse.ArgumentParser, default: str = "to the end") -> None:
+    """--start, --frames and --rotate for a video given as FRAMES."""
+    _add_video_range(parser, default)
+    parser.add_argument("--rotate", type=int, choices=(0, 90, 180, 270), default=None,
+                        help="video input: turn each frame clockwise by this many degrees (default: the "
+                             "container's rotation)")
+
+
 def cmd_estimate_row_time(args) -> int:
     """Row time of a camera from frames of an LED sending the square pattern."""
     from decoder import FrameReadError, RowTimeError, estimate_row_time, read_frame
@@ -394,10 +457,15 @@ def cmd_estimate_row_time(args) -> int:
 
     if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
         raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
-    skipped = []
+    skipped: list[str] = []
     max_pixels = frame_pixel_limit(workers=1)
+    video = _input_video(args.frames)
+    notes: list[str] = []
 
     def readable_frames():
+        if video is not None:
+            yield from _video_input_frames(video, args, None, notes)
+            return
         for path in _png_paths(args.frames):
             try:
                 yield read_frame(path, max_pixels=max_pixels)
@@ -409,6 +477,8 @@ def cmd_estimate_row_time(args) -> int:
         row_time_s, sigma_s = estimate_row_time(readable_frames(), args.clock_hz)
     except RowTimeError as exc:
         raise RollsimError(str(exc)) from None
+    for line in notes:
+        print(f"rollsim: note: {line}", file=sys.stderr)
     result = {"row_time_us": row_time_s * 1e6, "uncertainty_us": sigma_s * 1e6, "clock_hz": args.clock_hz,
               "frames_unreadable": len(skipped)}
     _write_outputs(args, {args.json: _json_text(result)})
@@ -432,13 +502,22 @@ def cmd_fit_camera(args) -> int:
         raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
     if args.pattern != "square":
         raise RollsimError(f"--pattern = {args.pattern!r}: only 'square' is fitted")
-    paths = _png_paths(args.frames)
-    if len(paths) < 2:
+    video = _input_video(args.frames)
+    paths = [] if video is not None else _png_paths(args.frames)
+    if video is None and len(paths) < 2:
         raise RollsimError(f"fit-camera needs at least two frames, got {len(paths)}")
     out = Path(args.out)
     check_directory_files(out, FILES, args.force)  # before the work, not after; made when written
     frames = []
-    for path in paths:
+    notes: list[str] = []
+    if video is not None:
+        frames = list(_video_input_frames(video, args, VIDEO_FIT_FRAMES, notes))
+        for line in notes:
+            print(f"rollsim: note: {line}", file=sys.stderr)
+        if len(frames) < 2:
+            raise RollsimError(f"fit-camera needs at least two frames, got {len(frames)} from {video}")
+        paths = [Path(f"{video}#{args.start + i}") for i in range(len(frames))]
+    for path in paths if video is None else ():
         try:
             image = read_frame(path, max_pixels=frame_pixel_limit(workers=1))
         except FrameReadError as exc:
@@ -784,9 +863,41 @@ def _add_scene_commands(sub) -> None:
     p.set_defaults(func=cmd_describe)
 
 
+def _add_video_options(parser: argparse.ArgumentParser) -> None:
+    """--container and the encoding options of a rendered video (docs/video.md)."""
+    from rollsim.video.settings import CHROMA_FORMATS, CONTAINERS, ENCODERS, PRESETS
+
+    g = parser.add_argument_group("video (instead of PNG frames)")
+    g.add_argument("--container", choices=CONTAINERS, default=None,
+                   help="write the frames as DIR/frames.mp4 or .mkv (default: PNG frames)")
+    g.add_argument("--codec", choices=tuple(ENCODERS), default=None, help="video codec (default h264)")
+    rate = g.add_mutually_exclusive_group()
+    rate.add_argument("--crf", type=int, default=None, help="constant rate factor 0-51 (0: lossless h264)")
+    rate.add_argument("--bitrate", default=None, metavar="BPS", help="average bitrate, e.g. 17M (default 17M)")
+    g.add_argument("--gop", type=_positive_int, default=None, help="frames between key frames (default: one second's)")
+    g.add_argument("--preset", choices=PRESETS, default=None, help="encoder speed preset (default superfast)")
+    g.add_argument("--chroma", choices=CHROMA_FORMATS, default=None, help="chroma subsampling (default 420)")
+
+
+def _video_settings(args):
+    """The video settings of ``render``'s options (None: PNG frames); refused in one line when inconsistent."""
+    from rollsim.video.settings import VideoSettings, parse_bitrate
+
+    options = {"codec": args.codec, "crf": args.crf, "bitrate_bps": None if args.bitrate is None else
+               parse_bitrate(args.bitrate), "gop_frames": args.gop, "preset": args.preset, "chroma": args.chroma}
+    given = {key: value for key, value in options.items() if value is not None}
+    if args.container is None:
+        if given:
+            names = ", ".join("--" + {"bitrate_bps": "bitrate", "gop_frames": "gop"}.get(k, k) for k in given)
+            raise RollsimError(f"{names}: video options need --container mp4 or mkv")
+        return None
+    return VideoSettings(container=args.container, **given)
+
+
 def _add_pixel_commands(sub) -> None:
-    p = sub.add_parser("render", help="render a scene to PNG frames with ground truth")
+    p = sub.add_parser("render", help="render a scene to PNG frames (or a video) with ground truth")
     _add_scene_output_options(p)
+    _add_video_options(p)
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("run", help="the main job: render, decode, evaluate, calibrate and report a scene")
@@ -794,7 +905,9 @@ def _add_pixel_commands(sub) -> None:
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("decode", help="decode the PHY-SDUs of a directory of frames into DIR/decoded.jsonl")
-    p.add_argument("dir", metavar="DIR", help="a render directory (frames/*.png) or a folder of PNG frames")
+    p.add_argument("dir", metavar="DIR", help="a render directory (frames/*.png or frames.mp4), a folder of PNG "
+                   "frames, or a video file")
+    _add_video_range(p)
     p.add_argument("--scene", metavar="FILE", default=None,
                    help="scene giving the link and camera (default: DIR/scene.resolved.yaml)")
     p.add_argument("--clock-hz", type=float, default=None, help="chip rate in Hz (overrides the scene)")
@@ -841,7 +954,8 @@ def _add_pixel_commands(sub) -> None:
     p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("estimate-row-time", help="row time of a camera from frames of a square-wave LED")
-    p.add_argument("frames", nargs="+", metavar="FRAMES", help="PNG frames, or directories of them")
+    p.add_argument("frames", nargs="+", metavar="FRAMES", help="PNG frames, or directories of them, or one video")
+    _add_video_input(p)
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
     _add_json_file(p, "also write the estimate as JSON")
     _add_force(p)
@@ -849,7 +963,9 @@ def _add_pixel_commands(sub) -> None:
     p.set_defaults(func=cmd_estimate_row_time)
 
     p = sub.add_parser("fit-camera", help="fit a camera, its ISP and the LED's image to real frames of a square-wave LED")
-    p.add_argument("frames", nargs="+", metavar="FRAMES", help="8-bit PNG frames, consecutive, or directories of them")
+    p.add_argument("frames", nargs="+", metavar="FRAMES",
+                   help="8-bit PNG frames, consecutive, or directories of them, or one video")
+    _add_video_input(p, f"{VIDEO_FIT_FRAMES}")
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
     p.add_argument("--pattern", choices=["square"], default="square", help="what the LED sends (default square)")
     p.add_argument("--scene", default="paper-geometric",

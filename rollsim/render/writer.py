@@ -1,11 +1,13 @@
-"""Render a scene to disk: PNG frames, truth.jsonl and scene.resolved.yaml.
+"""Render a scene to disk: PNG frames (or one video file), truth.jsonl and scene.resolved.yaml.
 
 Frames stream through a bounded window of work, so memory stays flat however
 many frames are rendered. With several workers, each process builds the
 pipeline once, then renders, PNG-encodes and writes whole chunks of frames
 itself (only the small truth records travel back); truth lines are written
 in frame order. Every random stream depends only on the seed and the frame
-index, so the output is byte-identical for any number of workers.
+index, so the output is byte-identical for any number of workers. A video
+(:class:`rollsim.video.VideoSettings`) is encoded here, in frame order, from
+the images the workers send back.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from rollsim.sensor.chain import warm_up
 
 if TYPE_CHECKING:
     from rollsim.scene.model import Scene
+    from rollsim.video import VideoSettings
     from rollsim.scene_sections import SceneSections
 
 CHUNK_FRAMES = 4
@@ -80,17 +83,31 @@ def frame_text(scene: SceneSections, truth: dict) -> dict[str, str]:
 _WORKER_PIPELINE: Optional[RenderPipeline] = None
 
 
-def frame_disk_bytes(scene: Scene) -> float:
-    """An upper bound of the bytes one rendered frame takes on disk: its PNG and its truth line."""
+# A video's rate control may overshoot its average bitrate this many times.
+_BITRATE_MARGIN = 2.0
+
+
+def frame_disk_bytes(scene: Scene, video: Optional[VideoSettings] = None) -> float:
+    """An upper bound of the bytes one rendered frame takes on disk: its PNG (or its
+    share of the video) and its truth line.
+
+    A video at a set bitrate takes at most :data:`_BITRATE_MARGIN` times its
+    share of it; at a constant rate factor it is bounded by the samples, as a PNG.
+    """
     from rollsim.transmitter import phy_from_scene
 
     cam = scene.camera
-    samples = cam.width_px * cam.height_px * _SAMPLE_BYTES.get(cam.output, 6)
+    samples = float(cam.width_px * cam.height_px * _SAMPLE_BYTES.get(cam.output, 6))
+    if video is not None and video.crf is None:
+        from rollsim.video.settings import DEFAULT_BITRATE_BPS
+
+        samples = min(samples, _BITRATE_MARGIN * (video.bitrate_bps or DEFAULT_BITRATE_BPS) / 8 * cam.frame_period_s)
     sdus = cam.frame_period_s * scene.link.clock_hz / max(1, phy_from_scene(scene).sdu_chips) + 2
     return samples + _FRAME_OVERHEAD_BYTES + _TRUTH_BYTES_PER_SDU * sdus
 
 
-def check_render_disk(scene: Scene, n_frames: int, target: Path, what: str = "") -> None:
+def check_render_disk(scene: Scene, n_frames: int, target: Path, what: str = "",
+                      video: Optional[VideoSettings] = None) -> None:
     """Refuse ``n_frames`` of ``scene`` whose files would not fit the disk budget under ``target``.
 
     ``what`` names the option that asked for them, before the frame count.
@@ -99,7 +116,7 @@ def check_render_disk(scene: Scene, n_frames: int, target: Path, what: str = "")
 
     cam = scene.camera
     check_disk(f"{what}{n_frames} frames of {cam.width_px} x {cam.height_px} {cam.output}",
-               n_frames * frame_disk_bytes(scene), target)
+               n_frames * frame_disk_bytes(scene, video), target)
 
 
 def _init_worker(scene: Scene) -> None:
@@ -123,6 +140,59 @@ def _render_chunk(indices: list[int], frames_dir: Path, decode: Optional[Callabl
     return written
 
 
+def _render_images(indices: list[int]) -> list[tuple]:
+    """Render frames and hand back ``(truth record, image)`` (a video is encoded in the parent, in order)."""
+    assert _WORKER_PIPELINE is not None  # set by _init_worker in this process
+    return [(frame.truth, frame.image) for frame in map(_WORKER_PIPELINE.render, indices)]
+
+
+def video_metadata(scene: Scene, n_frames: int, video: VideoSettings) -> dict[str, str]:
+    """The container tags of a rendered video: the scene, seed and camera settings
+    (as :func:`frame_text` gives them a PNG), the frame count and the encoding."""
+    text = frame_text(scene, {"frame": 0, "start_s": 0.0})
+    del text["frame"], text["start_s"], text["Software"]
+    return {**text, "frames": str(n_frames), "frame_rate_hz": repr(scene.camera.frame_rate_hz),
+            "encoding": f"{video.codec} {video.rate_control()} gop {video.gop_for(scene.camera.frame_rate_hz)} "
+                        f"preset {video.preset} chroma {video.chroma}", "comment": f"rendered by rollsim {__version__}"}
+
+
+def check_video_scene(scene: Scene, video: VideoSettings) -> None:
+    """Refuse, before any frame, a scene whose frames the video cannot hold or this machine cannot encode."""
+    from rollsim.errors import RollsimError
+    from rollsim.video.settings import check_encoder, encoder_and_format
+
+    cam = scene.camera
+    if cam.output not in ("gray8", "rgb8"):
+        raise RollsimError(f"--container {video.container}: camera.output {cam.output}; a video holds 8-bit frames "
+                           "(gray8 or rgb8)")
+    colour = cam.output == "rgb8"
+    check_encoder(video, colour)
+    _, fmt = encoder_and_format(video, colour)
+    if fmt in ("yuv420p",) and (cam.width_px % 2 or cam.height_px % 2):
+        raise RollsimError(f"--chroma 420: {cam.width_px}x{cam.height_px} px frames; 4:2:0 needs an even width "
+                           "and height (use --chroma 444)")
+    if video.codec == "hevc" and min(cam.width_px, cam.height_px) < 64:
+        raise RollsimError(f"--codec hevc: {cam.width_px}x{cam.height_px} px frames; x265 needs 64 px or more "
+                           "a side (use --codec h264)")
+
+
+def _write_video(scene: Scene, n_frames: int, workers: int, directory: Path, truth_file,
+                 video: VideoSettings, progress: Optional[Callable[[int], None]]) -> None:
+    from rollsim.video.write import VideoWriter, video_name
+
+    cam = scene.camera
+    chunks = chunked(range(n_frames), CHUNK_FRAMES)
+    with VideoWriter(directory / video_name(video), video, cam.width_px, cam.height_px, cam.frame_rate_hz,
+                     cam.output == "rgb8", video_metadata(scene, n_frames, video)) as writer:
+        for written, (truth, image) in enumerate(
+                ordered_chunk_map(_render_images, chunks, workers, initializer=_init_worker, initargs=(scene,)),
+                start=1):
+            writer.write(image)
+            truth_file.write(json.dumps(truth, separators=(",", ":")) + "\n")
+            if progress is not None:
+                progress(written)
+
+
 def _written_frames(scene: Scene, n_frames: int, workers: int, frames_dir: Path,
                     decode: Optional[Callable] = None) -> Iterator[tuple]:
     """Render and write every frame; yield ``(truth record, what decode returned or None)`` in frame order."""
@@ -139,6 +209,7 @@ def render_to_dir(
     workers: Optional[int] = None,
     progress: Optional[Callable[[int], None]] = None,
     inputs: Iterable = (),
+    video: Optional[VideoSettings] = None,
 ) -> RenderSummary:
     """Render ``n_frames`` frames of ``scene`` into ``out_dir``.
 
@@ -159,6 +230,8 @@ def render_to_dir(
         Called with the number of frames written after each frame.
     inputs : iterable of path, optional
         The command's input files, which ``out_dir`` must not hold.
+    video : VideoSettings, optional
+        Write the frames as one video, ``frames.mp4`` (or ``.mkv``), instead of PNGs.
 
     Raises
     ------
@@ -171,11 +244,13 @@ def render_to_dir(
     if n_frames < 1:
         raise ValueError(f"n_frames must be >= 1, got {n_frames}")
     workers = default_workers() if workers is None else max(1, int(workers))
+    if video is not None:
+        check_video_scene(scene, video)
     check_render_memory(scene, workers)
-    check_render_disk(scene, n_frames, Path(out_dir))
+    check_render_disk(scene, n_frames, Path(out_dir), video=video)
     _init_worker(scene)  # fails on an impossible scene before touching disk; kept for the render
     with staged_directory(Path(out_dir), force, inputs) as staging:
-        render_into(scene, staging, n_frames, workers, progress)
+        render_into(scene, staging, n_frames, workers, progress, video=video)
     return RenderSummary(Path(out_dir), n_frames, workers)
 
 
@@ -191,22 +266,29 @@ def is_short_render(scene: Scene, n_frames: int) -> bool:
 
 
 def render_into(scene: Scene, directory: Path, n_frames: int, workers: int, progress: Optional[Callable[[int], None]] = None,
-                decode: Optional[Callable] = None, on_decoded: Optional[Callable] = None) -> None:
+                decode: Optional[Callable] = None, on_decoded: Optional[Callable] = None,
+                video: Optional[VideoSettings] = None) -> None:
     """Write the frames, truth and resolved scene into an existing, empty ``directory``.
 
     The building block of :func:`render_to_dir`, for callers (``rollsim
     run``) that own the staged output directory themselves. With ``decode``
     (picklable: ``decode(index, image, path) -> result``, run in the workers on
     each frame as it is rendered), ``on_decoded(result)`` is called in frame
-    order in this process.
+    order in this process. With ``video`` the frames go into one video file
+    (``decode`` is then not supported).
     """
-    frames_dir = Path(directory) / "frames"
-    frames_dir.mkdir()
+    if video is not None and decode is not None:
+        raise ValueError("render_into: decode is not supported with a video output")
     (Path(directory) / "scene.resolved.yaml").write_text(scene_to_yaml(scene), encoding="utf-8")
     with numpy_only(is_short_render(scene, n_frames)), \
             open(Path(directory) / "truth.jsonl", "w", encoding="utf-8") as truth_file:
         _init_worker(scene)
         warm_up()  # workers fork with the pipeline built and the kernels loaded
+        if video is not None:
+            _write_video(scene, n_frames, workers, Path(directory), truth_file, video, progress)
+            return
+        frames_dir = Path(directory) / "frames"
+        frames_dir.mkdir()
         for written, (truth, decoded) in enumerate(_written_frames(scene, n_frames, workers, frames_dir, decode),
                                                    start=1):
             truth_file.write(json.dumps(truth, separators=(",", ":")) + "\n")

@@ -1,8 +1,8 @@
 """Decode a directory of frames into ``decoded.jsonl``.
 
 The receiver itself is the :mod:`decoder` package; this module is the glue
-that runs it over a render directory (or any folder of PNG frames) and
-writes the results:
+that runs it over a render directory (or any folder of PNG frames, or a
+video file: :func:`frame_video`) and writes the results:
 
 ``decoded.jsonl``
     One line per PHY-SDU found, ``ok`` or not (see
@@ -151,6 +151,49 @@ def frame_files(directory: Path) -> list[Path]:
     if not files:
         raise RollsimError(f"{folder}: no PNG frames")
     return files
+
+
+def frame_video(path: Path) -> Optional[Path]:
+    """The video file ``path`` stands for, or None where it holds PNG frames.
+
+    ``path`` itself when it is named as a video (:data:`rollsim.video.read.VIDEO_SUFFIXES`);
+    for a directory without PNG frames, its one video file (``frames.mp4`` or
+    ``frames.mkv`` of a render first).
+
+    Raises
+    ------
+    RollsimError
+        A directory holding several videos and no render's.
+    """
+    from rollsim.video.read import is_video_file
+
+    path = Path(path)
+    if path.is_file() or not path.exists():
+        return path if is_video_file(path) else None
+    folder = path / "frames" if (path / "frames").is_dir() else path
+    if any(p.suffix.lower() == ".png" for p in folder.iterdir()):
+        return None
+    videos = sorted(p for p in path.iterdir() if p.is_file() and is_video_file(p) and not p.name.startswith("."))
+    rendered = [p for p in videos if p.stem == "frames"]
+    if len(rendered) == 1 or len(videos) == 1:
+        return (rendered or videos)[0]
+    if len(videos) > 1:
+        raise RollsimError(f"{path}: holds {len(videos)} videos ({', '.join(p.name for p in videos[:3])}); "
+                           "give the file")
+    return None
+
+
+def video_chunks(video: Path, start: int = 0, count: Optional[int] = None, size: int = 8,
+                 notes: Optional[list] = None) -> Iterator[list[tuple[int, Any]]]:
+    """``(frame index, image)`` pairs of a video's frames ``start`` … in chunks of ``size``, streamed."""
+    from rollsim.video.read import read_video_frames
+
+    frames = enumerate(read_video_frames(video, start, count, notes=notes), start=start)
+    while True:
+        chunk = list(itertools.islice(frames, size))
+        if not chunk:
+            return
+        yield chunk
 
 
 # Peak bytes per pixel of one process decoding a frame, beyond the decoded
@@ -387,6 +430,9 @@ def _decode_chunk_with(chunk: list[tuple[int, str]], settings: DecodeSettings, m
     function = load_decoder(str(settings.decoder))
     out: list[tuple[int, list[dict], Optional[dict]]] = []
     for position, source in chunk:
+        if not isinstance(source, str):  # a video's frame, already read
+            out.append((position, plugin_records(function, source, settings, position, f"frame {position}", run), None))
+            continue
         index = frame_index_from_name(source, position)
         try:
             image = read_frame(source, max_pixels)
@@ -417,7 +463,8 @@ def _decode_chunk(chunk: list[tuple[int, str]], settings: DecodeSettings, max_pi
 
 
 def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1,
-                 run: Optional[str] = None) -> Iterator[tuple[int, list[dict], Optional[dict]]]:
+                 run: Optional[str] = None, chunks: Optional[Iterator[list]] = None,
+                 ) -> Iterator[tuple[int, list[dict], Optional[dict]]]:
     """Decode frame files; yield ``(frame, records, error)`` in file order.
 
     A file's frame index is the last number in its name, else its position.
@@ -425,6 +472,8 @@ def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1,
     file and what is wrong with it (a frame too large for the memory budget
     is one of these: :func:`frame_pixel_limit`). Every record carries
     ``run`` when given (:func:`rollsim.stages.records.run_identifier`).
+    ``chunks`` (``(frame index, image)`` pairs: :func:`video_chunks`) replaces
+    ``paths``: a video's frames, read here and decoded by the workers.
 
     Raises
     ------
@@ -435,7 +484,8 @@ def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1,
     """
     from concurrent.futures.process import BrokenProcessPool
 
-    chunks = chunked(list(enumerate(os.fspath(p) for p in paths)), CHUNK_FRAMES)
+    if chunks is None:
+        chunks = chunked(list(enumerate(os.fspath(p) for p in paths)), CHUNK_FRAMES)
     done = 0
     try:
         for item in ordered_chunk_map(_decode_chunk, chunks, workers, settings, frame_pixel_limit(workers), run):
@@ -443,7 +493,7 @@ def iter_decoded(paths: list[Path], settings: DecodeSettings, workers: int = 1,
             yield item
     except BrokenProcessPool:
         who = f"--decoder {settings.decoder}" if settings.decoder else "decode"
-        first = os.path.basename(paths[min(done, len(paths) - 1)])
+        first = os.path.basename(paths[min(done, len(paths) - 1)]) if paths else f"frame {done}"
         raise RollsimError(f"{who}: a worker process died while decoding the frames from {first} on (killed, "
                            "out of memory, or the decoder exited or crashed)") from None
 
@@ -536,6 +586,9 @@ def decode_directory(
     on_error: Optional[Callable[[dict], None]] = None,
     progress: Optional[Callable[[int], None]] = None,
     timeout_s: Optional[float] = None,
+    start: int = 0,
+    count: Optional[int] = None,
+    notes: Optional[list] = None,
 ) -> DecodeSummary:
     """Decode every frame of ``run_dir``; write ``decoded.jsonl`` and ``decode.json``.
 
@@ -546,7 +599,8 @@ def decode_directory(
     Parameters
     ----------
     run_dir : Path
-        A render directory (frames in ``frames/``) or a folder of PNGs.
+        A render directory (frames in ``frames/`` or one video), a folder of
+        PNGs, or a video file (outputs beside it).
     settings : DecodeSettings
     workers : int
         Processes.
@@ -559,6 +613,10 @@ def decode_directory(
     timeout_s : float, optional
         The most seconds a decoder of one's own (``settings.decoder``) may
         take on one frame; replaces ``settings.decoder_timeout_s`` when given.
+    start, count : int
+        A video's frames to decode: from ``start``, ``count`` of them (None: to the end).
+    notes : list, optional
+        Lines about what reading a video assumed (:func:`rollsim.video.read.read_video_frames`).
 
     Returns
     -------
@@ -576,17 +634,28 @@ def decode_directory(
         settings = replace(settings, decoder_timeout_s=timeout_s)
     if settings.decoder_timeout_s is not None and settings.decoder is None:
         raise RollsimError("--decoder-timeout: applies to a decoder of your own (--decoder) only")
-    files = frame_files(run_dir)
+    video = frame_video(run_dir)
+    if video is not None:
+        from rollsim.video.read import probe_video
+
+        probe_video(video)  # a file that is not video is refused before any output
+        run_dir = video.parent if video == run_dir else run_dir
+        files: list[Path] = []
+        chunks = video_chunks(video, start, count, CHUNK_FRAMES, notes)
+    else:
+        files, chunks = frame_files(run_dir), None
     run = run_identifier(run_dir)
     targets = [run_dir / DECODED_NAME, run_dir / SUMMARY_NAME]
     summary = DecodeSummary(settings, frames=len(files))
     with staged_files(targets, force) as staged:
         with staged.open(targets[0]) as out:
             written = DecodedRecords(out, summary, run_dir, on_error)
-            for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers, run), start=1):
+            done = 0
+            for done, (_, records, error) in enumerate(iter_decoded(files, settings, workers, run, chunks), start=1):
                 written.add(records, error)
                 if progress is not None:
                     progress(done)
+            summary.frames = done
         staged.write(targets[1], summary_text(summary))
     return summary
 

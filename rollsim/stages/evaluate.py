@@ -381,7 +381,11 @@ def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], dec
             raise RollsimError(f"{truth_file}: line {line}: frame {frame} after frame {before}; frames must increase")
     frame_dir = run_dir / "frames"
     if not frame_dir.is_dir():
-        raise RollsimError(f"{frame_dir}: not found; evaluate checks the truth against the rendered frames")
+        video = _rendered_video(run_dir)
+        if video is None:
+            raise RollsimError(f"{frame_dir}: not found; evaluate checks the truth against the rendered frames")
+        _check_video_frames(video, truth_file, len(frames))
+        return _decode_checks(run_dir, truth_file, frames, decoded, decoded_file, decode_info, payload_bits)
     on_disk = {}
     for path in frame_dir.iterdir():
         if path.suffix.lower() == ".png" and not path.name.startswith("."):
@@ -394,6 +398,29 @@ def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], dec
     if extra:
         raise RollsimError(f"{truth_file}: lists {len(frames)} frames but {frame_dir.name}/ holds {len(on_disk)} "
                            f"({on_disk[extra[0]].name} has no truth line); the render did not finish")
+    return _decode_checks(run_dir, truth_file, frames, decoded, decoded_file, decode_info, payload_bits)
+
+
+def _rendered_video(run_dir: Path):
+    """The video a render directory holds in place of ``frames/`` (``frames.mp4`` or ``.mkv``), or None."""
+    for name in ("frames.mp4", "frames.mkv"):
+        if (run_dir / name).is_file():
+            return run_dir / name
+    return None
+
+
+def _check_video_frames(video: Path, truth_file: Path, n_truth: int) -> None:
+    """Refuse a rendered video whose frame count disagrees with the truth's lines."""
+    from rollsim.video.read import count_video_frames
+
+    held = count_video_frames(video)
+    if held != n_truth:
+        raise RollsimError(f"{video}: holds {held} frames but {truth_file.name} lists {n_truth}; the video and the "
+                           "truth are not of one render")
+
+
+def _decode_checks(run_dir: Path, truth_file: Path, frames: list, decoded: list[dict], decoded_file: Path,
+                   decode_info: dict, payload_bits: int) -> list[str]:
     counted = decode_info.get("frames")
     if isinstance(counted, int) and counted != len(frames):
         raise RollsimError(f"{run_dir / 'decode.json'}: the decode read {counted} frames but {truth_file.name} lists "

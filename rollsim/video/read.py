@@ -1,0 +1,227 @@
+"""Read the frames of a video file, streamed and the right way up.
+
+Any file FFmpeg reads (a phone's MP4/MOV, MKV) is accepted if its video is
+8-bit: Y'CbCr at any chroma subsampling, or grey. Frames come out as uint8
+arrays: grey where the file is grey or was written by rollsim from grey
+frames, RGB otherwise. A portrait recording is turned upright from the
+rotation its container gives (or as the caller says, ``rotate_deg``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterator, Optional
+
+import numpy as np
+
+from rollsim.errors import RollsimError, short_repr
+
+__all__ = ["VIDEO_SUFFIXES", "VideoInfo", "count_video_frames", "is_video_file", "probe_video", "read_video_frames"]
+
+# Files taken for video by their name (a directory holding one stands for it).
+VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".m4v", ".avi", ".webm")
+# 8-bit pixel formats read; 10- and 12-bit ones are refused (rollsim's frames are 8-bit).
+_EIGHT_BIT = {"yuv420p", "yuvj420p", "yuv422p", "yuvj422p", "yuv444p", "yuvj444p", "nv12", "nv21", "gray",
+              "yuv411p", "yuv440p", "yuvj440p", "rgb24", "bgr24", "bgr0", "gbrp"}
+_GREY_FORMATS = {"gray"}
+# The frame timestamps may step by this fraction of the average step before the
+# rate counts as variable (container time bases round the steps).
+_RATE_TOLERANCE = 0.02
+
+
+def is_video_file(path: Path) -> bool:
+    """Whether ``path`` is named as a video file (:data:`VIDEO_SUFFIXES`)."""
+    return Path(path).suffix.lower() in VIDEO_SUFFIXES
+
+
+@dataclass(frozen=True)
+class VideoInfo:
+    """What a video file's header says.
+
+    Attributes
+    ----------
+    path : Path
+    frames : int or None
+        The frame count the header gives (None: not given).
+    width_px, height_px : int
+        As stored (before rotation).
+    frame_rate_hz : float
+        The average rate.
+    codec, pixel_format : str
+    rotation_deg : int
+        The clockwise turn that shows the frames upright (0, 90, 180, 270).
+    grey : bool
+        Frames are read as grey: the file is grey, or rollsim wrote it from grey frames.
+    metadata : dict
+        The container's tags.
+    """
+
+    path: Path
+    frames: Optional[int]
+    width_px: int
+    height_px: int
+    frame_rate_hz: float
+    codec: str
+    pixel_format: str
+    rotation_deg: int
+    grey: bool
+    metadata: dict = field(default_factory=dict)
+
+
+def _open(path: Path):
+    import av
+
+    if not path.is_file():
+        raise RollsimError(f"{path}: no such video file")
+    try:
+        container = av.open(str(path))
+    except (av.FFmpegError, ValueError, OSError) as exc:
+        raise RollsimError(f"{path}: not a video file FFmpeg can read ({_reason(exc)})") from None
+    if not container.streams.video:
+        container.close()
+        raise RollsimError(f"{path}: holds no video stream")
+    return container
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc).split(":")[0] if isinstance(exc, OSError) else str(exc)
+    return short_repr(text.strip() or type(exc).__name__).strip("'\"")
+
+
+def _rotation(stream) -> int:
+    """The clockwise turn (degrees) the container asks for, from its display matrix or ``rotate`` tag."""
+    tag = stream.metadata.get("rotate")
+    if tag is not None:
+        try:
+            return int(round(float(tag))) % 360
+        except ValueError:
+            return 0
+    for data in getattr(stream, "side_data", {}) or {}:
+        if "display" in str(data).lower():
+            break
+    return 0
+
+
+def probe_video(path: Path) -> VideoInfo:
+    """Read a video file's header.
+
+    Raises
+    ------
+    RollsimError
+        Not a file, not a video FFmpeg reads, no video stream, or a pixel
+        format that is not 8-bit.
+    """
+    path = Path(path)
+    container = _open(path)
+    try:
+        stream = container.streams.video[0]
+        ctx = stream.codec_context
+        fmt = ctx.pix_fmt or "unknown"
+        if fmt not in _EIGHT_BIT:
+            depth = " (more than 8 bits a sample)" if any(s in fmt for s in ("10", "12", "16")) else ""
+            raise RollsimError(f"{path}: pixel format {fmt}{depth} is not read; rollsim reads 8-bit video")
+        rate = float(stream.average_rate) if stream.average_rate else float(stream.guessed_rate or 0)
+        if not (math.isfinite(rate) and rate > 0):
+            raise RollsimError(f"{path}: no frame rate in the header")
+        tags = {str(k).lower(): v for k, v in container.metadata.items()}  # Matroska upper-cases its tags
+        grey = fmt in _GREY_FORMATS or tags.get("output") == "gray8"
+        return VideoInfo(path, int(stream.frames) or None, int(ctx.width), int(ctx.height), rate, ctx.name, fmt,
+                         _rotation(stream), grey, tags)
+    finally:
+        container.close()
+
+
+def count_video_frames(path: Path) -> int:
+    """The frames a video holds, counted from its packets (demuxed, not decoded: fast).
+
+    Raises
+    ------
+    RollsimError
+        As :func:`probe_video`, or data that breaks off (a truncated file).
+    """
+    import av
+
+    probe_video(path)
+    container = _open(Path(path))
+    try:
+        stream = container.streams.video[0]
+        return sum(1 for packet in container.demux(stream) if packet.size)
+    except av.FFmpegError as exc:
+        raise RollsimError(f"{path}: the video data breaks off ({_reason(exc)}); the file is truncated or corrupt") \
+            from None
+    finally:
+        container.close()
+
+
+def _upright(image: np.ndarray, clockwise_deg: int) -> np.ndarray:
+    """The image turned clockwise by ``clockwise_deg`` (a multiple of 90)."""
+    turns = (clockwise_deg // 90) % 4
+    return np.ascontiguousarray(np.rot90(image, k=-turns)) if turns else image
+
+
+def read_video_frames(path: Path, start: int = 0, count: Optional[int] = None, rotate_deg: Optional[int] = None,
+                      notes: Optional[list] = None) -> Iterator[np.ndarray]:
+    """The frames ``start`` … ``start + count − 1`` of a video, as uint8 arrays, one at a time.
+
+    Parameters
+    ----------
+    path : Path
+    start : int
+        The first frame (0-based, in decoding order).
+    count : int, optional
+        Frames to read (default: to the end).
+    rotate_deg : int, optional
+        Clockwise turn applied to every frame (a multiple of 90); default:
+        the container's rotation.
+    notes : list, optional
+        Lines about what was assumed (a variable frame rate read as
+        consecutive frames) are appended here.
+
+    Raises
+    ------
+    RollsimError
+        As :func:`probe_video`; fewer frames than ``start + count``; a file
+        that ends inside its data (truncated or corrupt).
+    """
+    import av
+
+    info = probe_video(path)
+    if rotate_deg is not None and rotate_deg % 90:
+        raise RollsimError(f"--rotate = {rotate_deg}: must be a multiple of 90 degrees")
+    turn = info.rotation_deg if rotate_deg is None else rotate_deg % 360
+    want = None if count is None else start + count
+    container = _open(Path(path))
+    seen = 0
+    steps: list[int] = []
+    last_pts = None
+    try:
+        stream = container.streams.video[0]
+        stream.thread_type = "AUTO"
+        fmt = "gray" if info.grey else "rgb24"
+        try:
+            for frame in container.decode(stream):
+                if frame.pts is not None:
+                    if last_pts is not None:
+                        steps.append(frame.pts - last_pts)
+                    last_pts = frame.pts
+                if seen >= start:
+                    yield _upright(frame.to_ndarray(format=fmt), turn)
+                seen += 1
+                if want is not None and seen >= want:
+                    break
+        except av.FFmpegError as exc:
+            raise RollsimError(f"{path}: the video data ends or breaks after frame {seen} ({_reason(exc)}); "
+                               "the file is truncated or corrupt") from None
+    finally:
+        container.close()
+    if want is not None and seen < want:
+        raise RollsimError(f"{path}: holds {seen} frames; frames {start} to {want - 1} were asked for")
+    if want is None and info.frames is not None and seen < info.frames:
+        raise RollsimError(f"{path}: the header gives {info.frames} frames but {seen} decode; the file is truncated")
+    if notes is not None and len(steps) > 2:
+        mean_step = float(np.mean(steps))
+        if mean_step > 0 and float(np.max(np.abs(np.asarray(steps) - mean_step))) > _RATE_TOLERANCE * mean_step:
+            notes.append(f"{path}: variable frame rate (frame steps {min(steps)} to {max(steps)} ticks); "
+                         f"frames are read as consecutive at the average {info.frame_rate_hz:.3f} Hz")

@@ -1,0 +1,131 @@
+"""Stream frames into a video file: one video frame per rendered frame, in order.
+
+The container is opened once and frames are encoded as they come, so memory
+stays flat in the frame count. The scene, its seed, the row time and the
+frame rate go into the container's metadata, where :mod:`rollsim.video.read`
+finds them again.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, Optional
+
+import numpy as np
+
+from rollsim.errors import RollsimError
+from rollsim.video.settings import DEFAULT_BITRATE_BPS, VideoSettings, check_encoder, encoder_and_format
+
+__all__ = ["VideoWriter", "video_name"]
+
+# The largest denominator of a frame rate written as a fraction (NTSC's 30000/1001 fits).
+_RATE_DENOMINATOR = 1001
+# FFmpeg's AVCOL_RANGE_JPEG: levels span 0-255.
+_FULL_RANGE = 2
+
+
+def video_name(settings: VideoSettings) -> str:
+    """The file a render writes its frames to: ``frames.mp4`` or ``frames.mkv``."""
+    return f"frames.{settings.container}"
+
+
+class VideoWriter:
+    """Encode 8-bit frames, grey (H, W) or RGB (H, W, 3), into ``path``.
+
+    Parameters
+    ----------
+    path : Path
+        The file to write (a staging area's: the caller commits it).
+    settings : VideoSettings
+    width_px, height_px : int
+        The frames' size.
+    frame_rate_hz : float
+    colour : bool
+        RGB frames (else grey).
+    metadata : dict, optional
+        Written into the container's tags (strings).
+    """
+
+    def __init__(self, path: Path, settings: VideoSettings, width_px: int, height_px: int, frame_rate_hz: float,
+                 colour: bool, metadata: Optional[dict] = None):
+        import av
+
+        check_encoder(settings, colour)
+        encoder, fmt = encoder_and_format(settings, colour)
+        if fmt == "yuv420p" and (width_px % 2 or height_px % 2):
+            raise RollsimError(f"--chroma 420: {width_px}x{height_px} px frames; 4:2:0 needs an even width and "
+                               "height (use --chroma 444)")
+        self._colour = colour
+        self._shape = (height_px, width_px, 3) if colour else (height_px, width_px)
+        # Bit-exact muxing: no random segment UID, date or library version, so
+        # the same frames give the same file (the project's determinism).
+        options = {"fflags": "+bitexact"}
+        if settings.container == "mp4":
+            options["movflags"] = "use_metadata_tags"
+        self._container = av.open(str(path), mode="w", format="mp4" if settings.container == "mp4" else "matroska",
+                                  options=options)
+        try:
+            rate = Fraction(frame_rate_hz).limit_denominator(_RATE_DENOMINATOR)
+            # PyAV types add_stream by codec name; an encoder named at run time
+            # is typed as any stream, so the video stream is taken as such.
+            stream: Any = self._container.add_stream(encoder, rate=rate)
+            stream.width, stream.height, stream.pix_fmt = width_px, height_px, fmt
+            stream.gop_size = settings.gop_for(frame_rate_hz)
+            codec_options: dict[str, str] = {"preset": settings.preset}
+            if settings.crf is not None:
+                codec_options["crf"] = str(settings.crf)
+            else:
+                stream.bit_rate = settings.bitrate_bps or DEFAULT_BITRATE_BPS
+            if settings.codec == "hevc":  # x265's crf 0 is not lossless by itself, as x264's is
+                codec_options["x265-params"] = "log-level=error" + (":lossless=1" if settings.crf == 0 else "")
+            stream.options = codec_options
+            stream.thread_type = "AUTO"
+            # x264 stores grey frames' levels as given, 0-255: flagged full range,
+            # or a reader takes them for TV range (16-235) and stretches them.
+            self._full_range = fmt == "gray"
+            if self._full_range:
+                stream.codec_context.color_range = _FULL_RANGE
+            for key, value in (metadata or {}).items():
+                self._container.metadata[str(key)] = str(value)
+        except BaseException:
+            self._container.close()
+            raise
+        self._stream = stream
+        self.frames = 0
+
+    def write(self, image: np.ndarray) -> None:
+        """Encode the next frame (uint8, the shape given)."""
+        import av
+
+        image = np.asarray(image)
+        if image.shape != self._shape or image.dtype != np.uint8:
+            raise ValueError(f"frame {self.frames}: {image.shape} {image.dtype}, expected {self._shape} uint8")
+        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24" if self._colour else "gray")
+        frame.pts = self.frames
+        if self._full_range:
+            frame.color_range = _FULL_RANGE
+        for packet in self._stream.encode(frame):
+            self._container.mux(packet)
+        self.frames += 1
+
+    def close(self) -> None:
+        """Flush the encoder and finish the file."""
+        try:
+            for packet in self._stream.encode():
+                self._container.mux(packet)
+        finally:
+            self._container.close()
+
+    def abort(self) -> None:
+        """Close without flushing (the file is left to its staging area)."""
+        self._container.close()
+
+    def __enter__(self) -> VideoWriter:
+        return self
+
+    def __exit__(self, kind, value, traceback) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()

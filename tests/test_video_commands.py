@@ -1,0 +1,134 @@
+"""Rendering to video and reading it back through the commands, as a user would (real processes)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clitools import SMALL, assert_one_error, run_rollsim
+from rollsim.video.read import count_video_frames, probe_video, read_video_frames
+
+SQUARE_20CM = ["--set", "link.pattern=square", "--set", "camera.iso=400", "--set", "link.distance_cm=20"]
+
+
+def _ok_count(run_dir: Path) -> int:
+    return json.loads((run_dir / "evaluation.json").read_text())["summary"]["counts"]["ok"]
+
+
+def test_render_writes_one_video_with_its_truth_and_metadata(tmp_path):
+    done = run_rollsim("render", "paper-default", *SMALL, "--frames", "7", "--container", "mkv", "--crf", "0",
+                       "--out", "v", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    out = tmp_path / "v"
+    assert not (out / "frames").exists()
+    video = out / "frames.mkv"
+    info = probe_video(video)
+    assert count_video_frames(video) == 7 == len((out / "truth.jsonl").read_text().splitlines())
+    assert (info.width_px, info.height_px, info.grey) == (160, 120, True)
+    assert info.metadata["scene"] == "paper-default" and abs(float(info.metadata["row_time_us"]) - 200.0) < 1e-9
+    assert "h264 crf 0" in info.metadata["encoding"]
+    # The same scene and seed give the same bytes, whatever the workers.
+    again = run_rollsim("render", "paper-default", *SMALL, "--frames", "7", "--container", "mkv", "--crf", "0",
+                        "--workers", "1", "--out", "w", cwd=tmp_path)
+    assert again.returncode == 0, again.stderr
+    assert (tmp_path / "w" / "frames.mkv").read_bytes() == video.read_bytes()
+
+
+def test_lossless_video_holds_the_png_frames(tmp_path):
+    """Known answer: a lossless video decodes to the PNG render's frames within 1 level."""
+    from decoder import read_frame
+
+    for args in (["--out", "png"], ["--container", "mp4", "--crf", "0", "--out", "mp4"]):
+        done = run_rollsim("render", "paper-default", *SMALL, "--frames", "4", *args, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    pngs = sorted((tmp_path / "png" / "frames").glob("*.png"))
+    for path, frame in zip(pngs, read_video_frames(tmp_path / "mp4" / "frames.mp4"), strict=True):
+        assert np.abs(frame.astype(int) - read_frame(path)).max() <= 1
+
+
+def test_phone_default_video_reads_as_the_png_frames_do(tmp_path):
+    """paper-default, 60 frames at the phone default (H.264, 17 Mb/s, 4:2:0): decode and evaluate
+    find at least 95 % of the PHY-SDUs they find in the PNG render."""
+    for args in (["--out", "png"], ["--container", "mp4", "--out", "mp4"]):
+        done = run_rollsim("render", "paper-default", "--frames", "60", *args, cwd=tmp_path, timeout=300)
+        assert done.returncode == 0, done.stderr
+        name = args[-1]
+        for command in ("decode", "evaluate"):
+            step = run_rollsim(command, name, cwd=tmp_path, timeout=300)
+            assert step.returncode == 0, step.stderr
+    png_ok, video_ok = _ok_count(tmp_path / "png"), _ok_count(tmp_path / "mp4")
+    assert png_ok > 150
+    assert video_ok >= 0.95 * png_ok, (video_ok, png_ok)
+
+
+def test_row_time_and_fit_read_a_video(tmp_path):
+    done = run_rollsim("render", "paper-default", *SQUARE_20CM, "--frames", "12", "--container", "mp4",
+                       "--out", "sq", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    row = run_rollsim("estimate-row-time", "sq/frames.mp4", "--clock-hz", "8000", "--start", "2", "--json",
+                      "rt.json", cwd=tmp_path)
+    assert row.returncode == 0, row.stderr
+    assert abs(json.loads((tmp_path / "rt.json").read_text())["row_time_us"] / 27.7778 - 1) < 0.005
+    fit = run_rollsim("fit-camera", "sq", "--clock-hz", "8000", "--out", "fit", cwd=tmp_path, timeout=300)
+    assert fit.returncode == 0, fit.stderr
+    est = json.loads((tmp_path / "fit" / "fit.json").read_text())["estimates"]
+    assert abs(est["row_time_us"]["value"] / 27.7778 - 1) < 0.005
+    assert abs(est["exposure_us"]["value"] / 100.0 - 1) < 0.10
+
+
+def test_video_options_need_a_container(tmp_path):
+    done = run_rollsim("render", "paper-default", *SMALL, "--crf", "20", "--out", "v", cwd=tmp_path)
+    assert_one_error(done, 2, "--crf", "need --container")
+    assert not (tmp_path / "v").exists()
+
+
+def test_grey_chroma_of_colour_frames_is_refused_before_rendering(tmp_path):
+    done = run_rollsim("render", "paper-default", *SMALL, "--set", "camera.output=rgb8", "--set", "effects.bayer.pattern=RGGB",
+                       "--container", "mp4",
+                       "--chroma", "gray", "--out", "v", cwd=tmp_path)
+    assert_one_error(done, 2, "--chroma gray", "colour")
+    assert not (tmp_path / "v").exists()
+
+
+def test_hevc_refuses_frames_narrower_than_its_blocks(tmp_path):
+    narrow = ["--set", "camera.width_px=48", "--set", "camera.height_px=120", "--set", "camera.row_time_us=200"]
+    done = run_rollsim("render", "paper-default", *narrow, "--container", "mkv", "--codec", "hevc", "--out", "v",
+                       cwd=tmp_path)
+    assert_one_error(done, 2, "--codec hevc", "64 px")
+
+
+def test_evaluate_refuses_a_video_that_is_not_its_truths(tmp_path):
+    done = run_rollsim("render", "paper-default", *SMALL, "--frames", "5", "--container", "mp4", "--out", "v",
+                       cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert run_rollsim("decode", "v", cwd=tmp_path).returncode == 0
+    truth = tmp_path / "v" / "truth.jsonl"
+    lines = truth.read_text().splitlines()
+    extra = json.loads(lines[-1])
+    extra["frame"] += 1
+    truth.write_text("\n".join([*lines, json.dumps(extra)]) + "\n")
+    refused = run_rollsim("evaluate", "v", cwd=tmp_path)
+    assert_one_error(refused, 2, "frames.mp4: holds 5 frames but truth.jsonl lists 6")
+
+
+def test_a_file_that_is_not_video_is_refused_by_decode(tmp_path):
+    (tmp_path / "clip.mp4").write_bytes(b"\x00" * 4096)
+    done = run_rollsim("decode", "clip.mp4", "--clock-hz", "8000", cwd=tmp_path)
+    assert_one_error(done, 2, "clip.mp4", "not a video file")
+    assert not (tmp_path / "decoded.jsonl").exists()
+
+
+@pytest.mark.parametrize("start,frames", [(0, 3), (2, 3)])
+def test_decode_reads_a_range_of_a_video(tmp_path, start, frames):
+    done = run_rollsim("render", "paper-default", *SMALL, "--frames", "6", "--container", "mp4", "--out", "v",
+                       cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    dec = run_rollsim("decode", "v", "--start", str(start), "--frames", str(frames), cwd=tmp_path)
+    assert dec.returncode == 0, dec.stderr
+    summary = json.loads((tmp_path / "v" / "decode.json").read_text())
+    assert summary["frames"] == frames
+    seen = {json.loads(line)["frame"] for line in (tmp_path / "v" / "decoded.jsonl").read_text().splitlines()}
+    assert seen <= set(range(start, start + frames))

@@ -1,0 +1,161 @@
+"""Frames through a real encoder and decoder (PyAV's FFmpeg): known answers and bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rollsim.errors import RollsimError
+from rollsim.video.read import count_video_frames, probe_video, read_video_frames
+from rollsim.video.settings import VideoSettings, parse_bitrate
+from rollsim.video.write import VideoWriter
+
+H, W = 96, 128
+
+
+def _grey(n: int, seed: int = 0) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return [rng.integers(0, 256, (H, W), dtype=np.uint8) for _ in range(n)]
+
+
+def _colour(n: int, seed: int = 1) -> list[np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return [rng.integers(0, 256, (H, W, 3), dtype=np.uint8) for _ in range(n)]
+
+
+def _write(path, frames, settings, colour=False, metadata=None):
+    with VideoWriter(path, settings, W, H, 30.0, colour, metadata) as writer:
+        for frame in frames:
+            writer.write(frame)
+
+
+@pytest.mark.parametrize("container,chroma", [("mp4", "420"), ("mkv", "444"), ("mp4", "gray")])
+def test_grey_frames_come_back_within_one_level_when_lossless(tmp_path, container, chroma):
+    frames = _grey(6)
+    path = tmp_path / f"v.{container}"
+    _write(path, frames, VideoSettings(container=container, crf=0, chroma=chroma), metadata={"output": "gray8"})
+    back = list(read_video_frames(path))
+    assert len(back) == len(frames)
+    for a, b in zip(back, frames):
+        assert a.shape == b.shape and a.dtype == np.uint8
+        # Limited-range Y' holds 220 levels for 256: one level of rounding each way.
+        assert np.abs(a.astype(int) - b).max() <= 1
+
+
+@pytest.mark.parametrize("codec", ["h264", "hevc"])
+def test_colour_444_is_exact_when_lossless(tmp_path, codec):
+    frames = _colour(4)
+    path = tmp_path / "v.mkv"
+    _write(path, frames, VideoSettings(container="mkv", codec=codec, crf=0, chroma="444"), colour=True)
+    back = list(read_video_frames(path))
+    assert max(int(np.abs(a.astype(int) - b).max()) for a, b in zip(back, frames)) <= 1
+
+
+def test_colour_420_loses_only_what_chroma_subsampling_drops(tmp_path):
+    """Grey detail on one colour (R, G, B = g + a constant offset: Cb and Cr the same
+    everywhere) survives 4:2:0, Y'CbCr rounding aside (2 levels); the colour of
+    pixel noise does not (its chroma is filtered to half the resolution)."""
+    rng = np.random.default_rng(2)
+    offset = np.array([30, 0, -20])
+    smooth = [(rng.integers(40, 200, (H, W, 1)) + offset).astype(np.uint8) for _ in range(3)]
+    noisy = _colour(3)
+    path = tmp_path / "v.mp4"
+    _write(path, smooth + noisy, VideoSettings(crf=0), colour=True)
+    back = list(read_video_frames(path))
+    assert max(int(np.abs(a.astype(int) - b).max()) for a, b in zip(back[:3], smooth)) <= 2
+    assert min(int(np.abs(a.astype(int) - b).max()) for a, b in zip(back[3:], noisy)) > 20
+
+
+def test_frame_order_range_and_count(tmp_path):
+    frames = _grey(9)
+    path = tmp_path / "v.mp4"
+    _write(path, frames, VideoSettings(crf=0), metadata={"output": "gray8", "scene": "s", "seed": "7"})
+    info = probe_video(path)
+    assert (info.width_px, info.height_px, info.frames, info.grey) == (W, H, 9, True)
+    assert info.metadata["scene"] == "s" and info.metadata["seed"] == "7"
+    assert count_video_frames(path) == 9
+    picked = list(read_video_frames(path, start=3, count=4))
+    assert len(picked) == 4
+    for a, b in zip(picked, frames[3:7]):
+        assert np.abs(a.astype(int) - b).max() <= 1
+    with pytest.raises(RollsimError, match="holds 9 frames"):
+        list(read_video_frames(path, start=5, count=10))
+
+
+def test_rotate_turns_frames_clockwise(tmp_path):
+    frames = _grey(2)
+    path = tmp_path / "v.mp4"
+    _write(path, frames, VideoSettings(crf=0), metadata={"output": "gray8"})
+    turned = next(read_video_frames(path, rotate_deg=90))
+    upright = next(read_video_frames(path))
+    assert turned.shape == (W, H)
+    assert np.array_equal(turned, np.rot90(upright, k=-1))
+
+
+def test_bad_files_are_refused_in_one_line(tmp_path):
+    text = tmp_path / "notes.mp4"
+    text.write_text("not a video at all\n" * 50)
+    with pytest.raises(RollsimError, match="not a video file") as err:
+        probe_video(text)
+    assert "\n" not in str(err.value)
+    with pytest.raises(RollsimError, match="no such video file"):
+        probe_video(tmp_path / "missing.mp4")
+    good = tmp_path / "v.mkv"
+    _write(good, _grey(30), VideoSettings(container="mkv", crf=0), metadata={"output": "gray8"})
+    data = good.read_bytes()
+    cut = tmp_path / "cut.mkv"
+    cut.write_bytes(data[: len(data) // 3])
+    assert count_video_frames(cut) < 30  # Matroska streams: what is left reads
+    with pytest.raises(RollsimError, match="cut.mkv: holds .* frames; frames 0 to 29 were asked for"):
+        list(read_video_frames(cut, count=30))
+    # An MP4's index (moov) follows its data: cut short, nothing reads.
+    mp4 = tmp_path / "v.mp4"
+    _write(mp4, _grey(30), VideoSettings(crf=0), metadata={"output": "gray8"})
+    short = tmp_path / "cut.mp4"
+    short.write_bytes(mp4.read_bytes()[: mp4.stat().st_size // 2])
+    with pytest.raises(RollsimError, match="cut.mp4: not a video file"):
+        probe_video(short)
+
+
+def test_ten_bit_video_is_refused(tmp_path):
+    import av
+
+    path = tmp_path / "deep.mkv"
+    with av.open(str(path), "w", format="matroska") as container:
+        stream = container.add_stream("libx264", rate=30)
+        stream.width, stream.height, stream.pix_fmt = W, H, "yuv420p10le"
+        for _ in range(2):
+            frame = av.VideoFrame.from_ndarray(np.zeros((H, W), np.uint8), format="gray").reformat(format="yuv420p10le")
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+    with pytest.raises(RollsimError, match="yuv420p10le.*8-bit"):
+        probe_video(path)
+
+
+@pytest.mark.parametrize("kwargs,field", [
+    ({"container": "avi"}, "--container"), ({"codec": "vp9"}, "--codec"), ({"crf": 60}, "--crf"),
+    ({"crf": 20, "bitrate_bps": 10**6}, "--crf and --bitrate"), ({"gop_frames": 0}, "--gop"),
+    ({"preset": "warp"}, "--preset"), ({"chroma": "422"}, "--chroma"),
+])
+def test_impossible_settings_name_their_option(kwargs, field):
+    with pytest.raises(RollsimError, match=field):
+        VideoSettings(**kwargs)
+
+
+def test_bitrates_parse_with_units():
+    assert parse_bitrate("17M") == 17_000_000
+    assert parse_bitrate("800k") == 800_000
+    assert parse_bitrate("2.5M") == 2_500_000
+    for bad in ("fast", "-3M", "5G", ""):
+        with pytest.raises(RollsimError, match="--bitrate"):
+            parse_bitrate(bad)
+
+
+def test_encoded_size_follows_the_bitrate(tmp_path):
+    """Rate control: 30 noisy frames (one second) at 2 Mb/s take about 250 kB."""
+    frames = _grey(30, seed=3)
+    path = tmp_path / "v.mp4"
+    _write(path, frames, VideoSettings(bitrate_bps=2_000_000), metadata={"output": "gray8"})
+    assert 0.5 * 250_000 < path.stat().st_size < 2.0 * 250_000
