@@ -359,6 +359,7 @@ def cmd_decode(args) -> int:
             run_dir, settings, workers=workers, force=args.force, timeout_s=args.decoder_timeout,
             on_error=lambda e: tqdm.write(f"rollsim: skipped frame {e['frame']}: {e['error']}", file=sys.stderr),
             progress=lambda n: bar.update(1), start=args.start, count=args.video_frames, notes=notes,
+            rotate_deg=args.rotate,
         )
     for line in notes:
         print(f"rollsim: note: {line}", file=sys.stderr)
@@ -907,7 +908,7 @@ def _add_pixel_commands(sub) -> None:
     p = sub.add_parser("decode", help="decode the PHY-SDUs of a directory of frames into DIR/decoded.jsonl")
     p.add_argument("dir", metavar="DIR", help="a render directory (frames/*.png or frames.mp4), a folder of PNG "
                    "frames, or a video file")
-    _add_video_range(p)
+    _add_video_input(p)
     p.add_argument("--scene", metavar="FILE", default=None,
                    help="scene giving the link and camera (default: DIR/scene.resolved.yaml)")
     p.add_argument("--clock-hz", type=float, default=None, help="chip rate in Hz (overrides the scene)")

@@ -184,11 +184,12 @@ def frame_video(path: Path) -> Optional[Path]:
 
 
 def video_chunks(video: Path, start: int = 0, count: Optional[int] = None, size: int = 8,
-                 notes: Optional[list] = None) -> Iterator[list[tuple[int, Any]]]:
-    """``(frame index, image)`` pairs of a video's frames ``start`` … in chunks of ``size``, streamed."""
+                 notes: Optional[list] = None, rotate_deg: Optional[int] = None) -> Iterator[list[tuple[int, Any]]]:
+    """``(frame index, image)`` pairs of a video's frames ``start`` … in chunks of ``size``, streamed
+    (upright: :func:`rollsim.video.read.read_video_frames`)."""
     from rollsim.video.read import read_video_frames
 
-    frames = enumerate(read_video_frames(video, start, count, notes=notes), start=start)
+    frames = enumerate(read_video_frames(video, start, count, rotate_deg=rotate_deg, notes=notes), start=start)
     while True:
         chunk = list(itertools.islice(frames, size))
         if not chunk:
@@ -589,6 +590,7 @@ def decode_directory(
     start: int = 0,
     count: Optional[int] = None,
     notes: Optional[list] = None,
+    rotate_deg: Optional[int] = None,
 ) -> DecodeSummary:
     """Decode every frame of ``run_dir``; write ``decoded.jsonl`` and ``decode.json``.
 
@@ -617,6 +619,8 @@ def decode_directory(
         A video's frames to decode: from ``start``, ``count`` of them (None: to the end).
     notes : list, optional
         Lines about what reading a video assumed (:func:`rollsim.video.read.read_video_frames`).
+    rotate_deg : int, optional
+        A video's frames turned clockwise by this much (default: as its container says).
 
     Returns
     -------
@@ -641,7 +645,7 @@ def decode_directory(
         probe_video(video)  # a file that is not video is refused before any output
         run_dir = video.parent if video == run_dir else run_dir
         files: list[Path] = []
-        chunks = video_chunks(video, start, count, CHUNK_FRAMES, notes)
+        chunks = video_chunks(video, start, count, CHUNK_FRAMES, notes, rotate_deg)
     else:
         files, chunks = frame_files(run_dir), None
     run = run_identifier(run_dir)

@@ -4,7 +4,8 @@ Any file FFmpeg reads (a phone's MP4/MOV, MKV) is accepted if its video is
 8-bit: Y'CbCr at any chroma subsampling, or grey. Frames come out as uint8
 arrays: grey where the file is grey or was written by rollsim from grey
 frames, RGB otherwise. A portrait recording is turned upright from the
-rotation its container gives (or as the caller says, ``rotate_deg``).
+rotation its container gives (its display matrix, or an older muxer's
+``rotate`` tag), or as the caller says (``rotate_deg``).
 """
 
 from __future__ import annotations
@@ -51,7 +52,8 @@ class VideoInfo:
         The average rate.
     codec, pixel_format : str
     rotation_deg : int
-        The clockwise turn that shows the frames upright (0, 90, 180, 270).
+        The clockwise turn that shows the frames upright (0, 90, 180, 270),
+        from the container's ``rotate`` tag or the display matrix.
     grey : bool
         Frames are read as grey: the file is grey, or rollsim wrote it from grey frames.
     metadata : dict
@@ -90,18 +92,22 @@ def _reason(exc: BaseException) -> str:
     return short_repr(text.strip() or type(exc).__name__).strip("'\"")
 
 
-def _rotation(stream) -> int:
-    """The clockwise turn (degrees) the container asks for, from its display matrix or ``rotate`` tag."""
+def _rotation(container, stream) -> int:
+    """The clockwise turn (degrees) that shows the frames upright: the container's
+    ``rotate`` tag (clockwise, as older FFmpeg muxers wrote it), else the first
+    frame's display matrix (which turns the frame counterclockwise by its angle)."""
     tag = stream.metadata.get("rotate")
     if tag is not None:
         try:
-            return int(round(float(tag))) % 360
+            return int(round(float(tag) / 90.0)) * 90 % 360
         except ValueError:
             return 0
-    for data in getattr(stream, "side_data", {}) or {}:
-        if "display" in str(data).lower():
-            break
-    return 0
+    try:
+        frame = next(container.decode(stream), None)
+    except Exception:  # a file broken past its header is refused where its frames are read
+        return 0
+    counterclockwise = int(round(getattr(frame, "rotation", 0) or 0))
+    return int(round(-counterclockwise / 90.0)) * 90 % 360
 
 
 def probe_video(path: Path) -> VideoInfo:
@@ -128,7 +134,7 @@ def probe_video(path: Path) -> VideoInfo:
         tags = {str(k).lower(): v for k, v in container.metadata.items()}  # Matroska upper-cases its tags
         grey = fmt in _GREY_FORMATS or tags.get("output") == "gray8"
         return VideoInfo(path, int(stream.frames) or None, int(ctx.width), int(ctx.height), rate, ctx.name, fmt,
-                         _rotation(stream), grey, tags)
+                         _rotation(container, stream), grey, tags)
     finally:
         container.close()
 

@@ -159,3 +159,37 @@ def test_encoded_size_follows_the_bitrate(tmp_path):
     path = tmp_path / "v.mp4"
     _write(path, frames, VideoSettings(bitrate_bps=2_000_000), metadata={"output": "gray8"})
     assert 0.5 * 250_000 < path.stat().st_size < 2.0 * 250_000
+
+
+def _write_turned(path, frames, counterclockwise_deg: int) -> None:
+    """Frames stored turned, with the display matrix that turns them back (a phone's portrait recording)."""
+    import av
+
+    h, w = frames[0].shape
+    with av.open(str(path), "w", format="mp4") as container:
+        stream = container.add_stream("libx264", rate=30)
+        stream.width, stream.height, stream.pix_fmt = w, h, "gray"
+        stream.options = {"crf": "0"}
+        stream.codec_context.color_range = 2
+        stream.set_display_rotation(counterclockwise_deg)
+        for i, image in enumerate(frames):
+            frame = av.VideoFrame.from_ndarray(image, format="gray")
+            frame.pts, frame.color_range = i, 2
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+
+
+@pytest.mark.parametrize("quarter_turns", [1, 2, 3])
+def test_portrait_recordings_are_read_upright(tmp_path, quarter_turns):
+    upright = _grey(3)
+    stored = [np.ascontiguousarray(np.rot90(f, k=-quarter_turns)) for f in upright]  # turned clockwise
+    path = tmp_path / "portrait.mp4"
+    _write_turned(path, stored, 90 * quarter_turns)  # shown turned back, counterclockwise
+    assert probe_video(path).rotation_deg == (360 - 90 * quarter_turns) % 360
+    for a, b in zip(read_video_frames(path), upright, strict=True):
+        # A file rollsim did not write is read as RGB: its grey comes as three equal channels.
+        assert np.array_equal(a, np.stack([b] * 3, axis=-1))
+    # --rotate overrides the container: 0 keeps the frames as stored.
+    assert np.array_equal(next(read_video_frames(path, rotate_deg=0))[..., 0], stored[0])
