@@ -69,7 +69,7 @@ def test_every_registered_effect_is_costed_and_the_heavy_ones_marked(result, tex
     assert [c["effect"] for c in costs] == [effect.name for effect in REGISTRY]
     limit = bench.TARGETS["effect_ms_added"][1]
     for c in costs:
-        assert c["heavy"] == (c["effect"] in ("motion", "defocus"))
+        assert c["heavy"] == (c["effect"] in ("motion", "defocus", "video_codec"))
         if c["ms_added"] is None:
             assert c["note"].startswith("not measured") and c["met"] is None
             continue

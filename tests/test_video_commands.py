@@ -165,3 +165,18 @@ def test_a_portrait_recording_decodes_as_the_upright_one(tmp_path):
     up = (tmp_path / "up" / "decoded.jsonl").read_text()
     assert up.count("\n") >= 5
     assert (tmp_path / "side" / "decoded.jsonl").read_text() == up
+
+
+def test_a_sweep_over_the_codecs_bitrate(tmp_path):
+    """effects.video_codec is a scene key like any other: a sweep (on Dask) over its bitrate
+    runs, and fewer bits read fewer PHY-SDUs."""
+    import csv
+
+    done = run_rollsim("sweep", "paper-default", "--grid", "effects.video_codec.bitrate_bps=3e5,2e7", "--stage", "run",
+                       "--frames", "30", "--workers", "2", "--out", "sweep", "--quiet", cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stderr
+    with open(tmp_path / "sweep" / "results.csv", newline="") as handle:
+        rows = {float(r["effects.video_codec.bitrate_bps"]): r for r in csv.DictReader(handle)}
+    assert all(r["status"] == "ok" for r in rows.values())
+    assert int(rows[3e5]["ok"]) < int(rows[2e7]["ok"])
+    assert int(rows[2e7]["ok"]) >= 0.9 * int(rows[2e7]["fully_visible"])

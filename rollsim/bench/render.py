@@ -69,9 +69,9 @@ VARIANTS = {
 }
 DEFAULT_VARIANT = "default effects, Poisson shot noise"
 
-# The effects the speed targets leave out as heavy (motion blur, defocus):
-# their cost is printed without a target.
-HEAVY_EFFECTS = ("motion", "defocus")
+# The effects the speed targets leave out as heavy (motion blur, defocus, and
+# the recording's video encoder and decoder): their cost is printed without a target.
+HEAVY_EFFECTS = ("motion", "defocus", "video_codec")
 # defocus's focus distance is relative to the LED's distance: it stays at
 # effect_pair's rule (1.5x the distance, effect-defocus's own ratio).
 SCENE_RELATIVE_PARAMETERS = ("defocus",)

@@ -37,6 +37,7 @@ from rollsim.effects import (
     sharpening,
     shot_noise,
     tone_curve,
+    video_codec,
     vignetting,
 )
 from rollsim.effects.base import SLOTS, Effect, EffectParams, NoParams, Stage
@@ -65,6 +66,7 @@ REGISTRY: tuple[Effect, ...] = (
     isp_smoothing.EFFECT,
     sharpening.EFFECT,
     jpeg.EFFECT,
+    video_codec.EFFECT,
 )
 
 __all__ = ["Effect", "EffectParams", "NoParams", "REGISTRY", "SLOTS", "Stage"]

@@ -92,6 +92,8 @@ class RenderPipeline:
 
     def _init(self, setup: SceneSetup, fuse: bool = True) -> None:
         self.setup = prepare_setup(setup)
+        # The coded GOP of a scene with video_codec: its first frame's index and its frames.
+        self._gop: tuple[int, list[RenderedFrame]] | None = None
         # The stages as the scene lists them, and as they run (chain steps fused).
         self.planned_stages: tuple[Stage, ...] = tuple(assemble_stages(self.setup))
         self.stages: tuple[Stage, ...] = tuple(fuse_chain(list(self.planned_stages)) if fuse else self.planned_stages)
@@ -120,10 +122,42 @@ class RenderPipeline:
         return state
 
     def render(self, index: int) -> RenderedFrame:
-        """Render frame ``index``: the image and its truth record."""
+        """Render frame ``index``: the image and its truth record.
+
+        With ``video_codec`` the frame comes out of its GOP's coding: the
+        GOP's frames are rendered and coded together the first time one of
+        them is asked for, and kept until a frame of another GOP is.
+        """
+        if self.setup.video_codec is None:
+            return self._render_stages(index)
+        gop = gop_frames(self.setup)
+        first = int(index) // gop * gop
+        if self._gop is None or self._gop[0] != first:
+            self._gop = None  # the old GOP's frames go before the new one's are made
+            self._gop = (first, self._coded_gop(first, gop))
+        return self._gop[1][int(index) - first]
+
+    def _render_stages(self, index: int) -> RenderedFrame:
         state = self.run_stages(index)
         truth = frame_truth(self.setup, state.index, state.start_s, state.led_rows, state.led_centre_px)
         return RenderedFrame(state.index, state.image, truth)
+
+    def _coded_gop(self, first: int, gop: int) -> list[RenderedFrame]:
+        """Frames ``first`` … ``first + gop − 1`` rendered, then encoded and decoded as one GOP."""
+        from rollsim.video.roundtrip import gop_round_trip
+
+        assert self.setup.video_codec is not None  # render() comes here only with the effect
+        frames = [self._render_stages(i) for i in range(first, first + gop)]
+        coded = gop_round_trip([f.image for f in frames], self.setup.video_codec,
+                               self.setup.scene.camera.frame_rate_hz)
+        return [RenderedFrame(f.index, image, f.truth) for f, image in zip(frames, coded)]
+
+
+def gop_frames(setup: SceneSetup) -> int:
+    """Frames a scene's ``video_codec`` codes together (its GOP); 1 without the effect."""
+    if setup.video_codec is None:
+        return 1
+    return setup.video_codec.gop_for(setup.scene.camera.frame_rate_hz)
 
 
 def iter_frames(scene: Scene, n_frames: int, start: int = 0) -> Iterator[RenderedFrame]:

@@ -140,6 +140,16 @@ def _render_chunk(indices: list[int], frames_dir: Path, decode: Optional[Callabl
     return written
 
 
+def chunk_frames(scene: Scene) -> int:
+    """Frames a worker renders at a time: :data:`CHUNK_FRAMES`, or one GOP of a scene with
+    ``video_codec`` (chunks start on its key frames, so no GOP is coded twice)."""
+    from rollsim.render.pipeline import gop_frames
+
+    assert _WORKER_PIPELINE is not None and _WORKER_PIPELINE.setup.scene is scene  # built by _init_worker
+    gop = gop_frames(_WORKER_PIPELINE.setup)
+    return CHUNK_FRAMES if gop == 1 else gop
+
+
 def _render_images(indices: list[int]) -> list[tuple]:
     """Render frames and hand back ``(truth record, image)`` (a video is encoded in the parent, in order)."""
     assert _WORKER_PIPELINE is not None  # set by _init_worker in this process
@@ -181,7 +191,7 @@ def _write_video(scene: Scene, n_frames: int, workers: int, directory: Path, tru
     from rollsim.video.write import VideoWriter, video_name
 
     cam = scene.camera
-    chunks = chunked(range(n_frames), CHUNK_FRAMES)
+    chunks = chunked(range(n_frames), chunk_frames(scene))
     with VideoWriter(directory / video_name(video), video, cam.width_px, cam.height_px, cam.frame_rate_hz,
                      cam.output == "rgb8", video_metadata(scene, n_frames, video)) as writer:
         for written, (truth, image) in enumerate(
@@ -196,7 +206,7 @@ def _write_video(scene: Scene, n_frames: int, workers: int, directory: Path, tru
 def _written_frames(scene: Scene, n_frames: int, workers: int, frames_dir: Path,
                     decode: Optional[Callable] = None) -> Iterator[tuple]:
     """Render and write every frame; yield ``(truth record, what decode returned or None)`` in frame order."""
-    chunks = chunked(range(n_frames), CHUNK_FRAMES)
+    chunks = chunked(range(n_frames), chunk_frames(scene))
     yield from ordered_chunk_map(_render_chunk, chunks, workers, frames_dir, decode, initializer=_init_worker,
                                  initargs=(scene,))
 

@@ -29,6 +29,7 @@ from rollsim.transmitter import Transmitter, transmitter_from_scene
 
 if TYPE_CHECKING:
     from rollsim.scene_sections import SceneSections
+    from rollsim.video import VideoSettings
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,9 @@ class SceneSetup:
     tone : ToneCurve or None
         The tone curve of ``gray8`` and ``rgb8`` output (``tone_curve``); None
         for linear.
+    video_codec : VideoSettings or None
+        The encoding the finished frames pass through, a GOP at a time
+        (``video_codec``: :class:`rollsim.render.pipeline.RenderPipeline`); None for none.
     """
 
     scene: SceneSections
@@ -96,6 +100,7 @@ class SceneSetup:
     cfa_pattern: str | None = None
     demosaic: str | None = None
     tone: ToneCurve | None = None
+    video_codec: VideoSettings | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -35,8 +35,9 @@ class VideoWriter:
 
     Parameters
     ----------
-    path : Path
-        The file to write (a staging area's: the caller commits it).
+    path : Path or binary file object
+        The file to write (a staging area's: the caller commits it), or a
+        seekable buffer (an in-memory round trip).
     settings : VideoSettings
     width_px, height_px : int
         The frames' size.
@@ -47,7 +48,7 @@ class VideoWriter:
         Written into the container's tags (strings).
     """
 
-    def __init__(self, path: Path, settings: VideoSettings, width_px: int, height_px: int, frame_rate_hz: float,
+    def __init__(self, path, settings: VideoSettings, width_px: int, height_px: int, frame_rate_hz: float,
                  colour: bool, metadata: Optional[dict] = None):
         import av
 
@@ -63,7 +64,8 @@ class VideoWriter:
         options = {"fflags": "+bitexact"}
         if settings.container == "mp4":
             options["movflags"] = "use_metadata_tags"
-        self._container = av.open(str(path), mode="w", format="mp4" if settings.container == "mp4" else "matroska",
+        target = str(path) if isinstance(path, (str, Path)) else path
+        self._container = av.open(target, mode="w", format="mp4" if settings.container == "mp4" else "matroska",
                                   options=options)
         try:
             rate = Fraction(frame_rate_hz).limit_denominator(_RATE_DENOMINATOR)

@@ -42,6 +42,8 @@ from rollsim.errors import SceneError
 from rollsim.numerics.jit import numpy_only
 from rollsim.protocol.frames import FRAME_NAME
 from rollsim.render import RenderPipeline
+from rollsim.render.pipeline import gop_frames
+from rollsim.video.roundtrip import gop_round_trip
 from rollsim.render import writer
 from rollsim.render.truth import frame_truth
 from rollsim.render.writer import render_to_dir
@@ -63,9 +65,10 @@ NAMES = tuple(effect.name for effect in REGISTRY)
 BY_NAME = {effect.name: effect for effect in REGISTRY}
 # Effects that are invalid with their defaults alone: the smallest valid parameters.
 # defocus: a lens focused at 5.5 cm, the LED at 5 cm: a blur disk of about 9 px.
-PARAMS = {"defocus": {"focus_distance_cm": 5.5}}
-# Effects of the ISP, which act on 8-bit output only.
-EIGHT_BIT = {"tone_curve", "isp_smoothing", "sharpening", "jpeg"}
+# video_codec: a GOP of the test's two frames (its default, one second's, would render 30).
+PARAMS = {"defocus": {"focus_distance_cm": 5.5}, "video_codec": {"gop_frames": N_FRAMES}}
+# Effects of the ISP and the recording, which act on 8-bit output only.
+EIGHT_BIT = {"tone_curve", "isp_smoothing", "sharpening", "jpeg", "video_codec"}
 
 
 def listing(names) -> dict:
@@ -159,6 +162,10 @@ def render_checked(scene) -> tuple[list[np.ndarray], list[dict]]:
                 assert not bad, f"frame {index}, after stage {stage.name}: not finite: {', '.join(bad)}"
             images.append(state.image)
             truths.append(frame_truth(setup, state.index, state.start_s, state.led_rows, state.led_centre_px))
+    if setup.video_codec is not None:  # the recording codes the finished frames a GOP at a time
+        gop = gop_frames(setup)
+        images = [image for first in range(0, N_FRAMES, gop) for image in gop_round_trip(
+            images[first:first + gop], setup.video_codec, scene.camera.frame_rate_hz)]
     return images, truths
 
 

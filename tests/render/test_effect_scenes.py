@@ -136,7 +136,8 @@ def test_every_effect_at_once_is_deterministic_and_decodes(tmp_path):
                  "effects.frame_jitter.std_us=30", "effects.motion.amplitude_y_px=6", "effects.flicker.depth=0.3",
                  "effects.blooming=null", "effects.row_noise=null", "effects.column_fpn=null",
                  "effects.isp_smoothing=null", "effects.sharpening=null",
-                 "effects.jpeg=null", "effects.glare=null", "effects.led_profile.core_sigma_mm=6"]
+                 "effects.jpeg=null", "effects.glare=null", "effects.led_profile.core_sigma_mm=6",
+                 "effects.video_codec.gop_frames=8"]
     scene = load_scene("effect-bayer", overrides)
     assert set(scene.effects.enabled()) == set(EFFECT_NAMES) - {"tone_curve"}
     images, truth = render_frames(scene, 8)

@@ -28,7 +28,7 @@ from rollsim.scene import EFFECT_NAMES, Effects, Scene, scene_from_dict, scene_m
 HELPERS = {"base", "lens", "readable"}
 EFFECTS_DIR = Path(rollsim.effects.__file__).parent
 # Effects of the ISP, which act on 8-bit output only.
-EIGHT_BIT = {"tone_curve", "isp_smoothing", "sharpening", "jpeg"}
+EIGHT_BIT = {"tone_curve", "isp_smoothing", "sharpening", "jpeg", "video_codec"}
 
 
 def small_scene(effects, registry=None, **camera):
