@@ -111,6 +111,23 @@ def test_shake_map_is_every_rows_per_chip_with_every_tremor_in_the_hands_proport
     assert rows == pytest.approx(sorted(SHAKE_ROWS_PER_CHIP), rel=1e-4)
 
 
+def test_compression_map_is_every_rows_per_chip_with_every_bitrate_from_half_to_fifty_mbps():
+    from rollsim.bench.envelope import SHAKE_ROWS_PER_CHIP
+
+    compression = next(m for m in MAPS if m.name == "compression")
+    points = compression.points(False)
+    bitrates = points["effects.video_codec.bitrate_bps"]
+    assert all(len(values) == len(bitrates) for values in points.values())
+    assert min(bitrates) == 5e5 and max(bitrates) == 5e7
+    assert len(set(zip(points["link.clock_hz"], bitrates))) == len(set(bitrates)) * len(SHAKE_ROWS_PER_CHIP)
+    # The scene takes every point: the codec's keys are scene keys like any other.
+    from rollsim.scene import load_scene
+
+    for k in (0, len(bitrates) - 1):
+        scene = load_scene(compression.scene, [f"{key}={values[k]}" for key, values in points.items()])
+        assert scene.effects.video_codec.bitrate_bps == bitrates[k]
+
+
 def _cell(series, x, ok, genie_ok, status="ok"):
     return {"status": status, "rows_per_chip": series, "effects.motion.tremor_deg": x, "ok_fraction": ok,
             "ok_ci_low": ok, "ok_ci_high": ok, "genie_ok_fraction": genie_ok, "genie_ok_ci_low": genie_ok,

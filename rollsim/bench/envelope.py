@@ -39,9 +39,13 @@ axis (:data:`MAPS`):
     rms angle, 0.0125 … 0.8°, with the drift at 6 times it and the roll's
     tremor and drift equal to the pan's and tilt's (the defaults'
     proportions), one curve per rows per chip (1, 2, 4.5, 8, as for
-    ``rows_per_chip``), on paper-default with its glare.
+    ``rows_per_chip``), on paper-default with its glare;
+``compression``
+    a phone's video recording (``video_codec``: H.264, one-second GOP,
+    4:2:0, x264 ``superfast``) at 0.5 … 50 Mb/s, one curve per rows per
+    chip (1, 2, 4.5, 8), on paper-default.
 
-A map with a *series* (``shake``) is a family of curves, one per value of
+A map with a *series* (``shake``, ``compression``) is a family of curves, one per value of
 the series column; each curve has its own boundaries.
 
 The 95 %-ok boundary of a curve (:func:`ok_regions`): the axis values at
@@ -135,6 +139,18 @@ def _shake(tremor_deg: Sequence[float], rows: Sequence[float]) -> dict:
     return points
 
 
+def _compression(bitrates_mbps: Sequence[float], rows: Sequence[float]) -> dict:
+    """Every (rows per chip, bitrate) pair: the rows-per-chip keys and the codec's bitrate, zipped."""
+    per_rows = _rows_per_chip(rows)
+    points: dict = {key: [] for key in [*per_rows, "effects.video_codec.bitrate_bps"]}
+    for k in range(len(rows)):
+        for mbps in bitrates_mbps:
+            for key, values in per_rows.items():
+                points[key].append(values[k])
+            points["effects.video_codec.bitrate_bps"].append(_round(mbps * 1e6))
+    return points
+
+
 def _saturation(full_wells: Sequence[float]) -> dict:
     return {"led.luminous_intensity_cd": [_round(BLOOMING_CD * w / BLOOMING_FULL_WELLS) for w in full_wells]}
 
@@ -219,6 +235,14 @@ MAPS = (
         "effects.motion.tremor_deg", "tremor, rms angle in pan, tilt and roll, degrees", True,
         "paper-default with its glare, held in the hand (motion: handheld): drift 6 × the tremor, roll as pan "
         "and tilt; one curve per rows per chip (clock at the paper's row time, exposure 0.8 chips, ISO scaled)",
+        series="rows_per_chip", series_label="{:.3g} rows/chip"),
+    EnvelopeMap(
+        "compression", "A phone's video encoder", "paper-default",
+        lambda quick: _compression([1.0, 20.0] if quick else [0.5, 1, 2, 5, 10, 20, 50],
+                                   [4.5] if quick else SHAKE_ROWS_PER_CHIP),
+        "effects.video_codec.bitrate_bps", "H.264 bitrate, bits/s", True,
+        "paper-default recorded as video (video_codec: H.264, one-second GOP, 4:2:0, superfast) at 0.5 … 50 Mb/s; "
+        "one curve per rows per chip (clock at the paper's row time, exposure 0.8 chips, ISO scaled)",
         series="rows_per_chip", series_label="{:.3g} rows/chip"),
 )
 MAP_NAMES = tuple(m.name for m in MAPS)
