@@ -37,6 +37,18 @@ def test_render_writes_one_video_with_its_truth_and_metadata(tmp_path):
     assert (tmp_path / "w" / "frames.mkv").read_bytes() == video.read_bytes()
 
 
+def test_the_phone_default_encoding_is_deterministic(tmp_path):
+    """The default (17 Mb/s, threaded x264): the same file for 1 and 2 workers and every run."""
+    size = ["--set", "camera.width_px=640", "--set", "camera.height_px=480"]
+    digests = set()
+    for run, workers in enumerate((1, 2, 2)):
+        done = run_rollsim("render", "paper-default", *size, "--frames", "20", "--container", "mp4", "--workers",
+                           str(workers), "--out", f"v{run}", cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+        digests.add((tmp_path / f"v{run}" / "frames.mp4").read_bytes())
+    assert len(digests) == 1
+
+
 def test_lossless_video_holds_the_png_frames(tmp_path):
     """Known answer: a lossless video decodes to the PNG render's frames within 1 level."""
     from decoder import read_frame

@@ -78,6 +78,8 @@ class VideoWriter:
             if settings.crf is not None:
                 codec_options["crf"] = str(settings.crf)
             else:
+                # x264's average-bitrate control, deterministic with threads; its
+                # VBV (a phone's CBR-like buffer) is not: frames would differ from run to run.
                 stream.bit_rate = settings.bitrate_bps or DEFAULT_BITRATE_BPS
             if settings.codec == "hevc":  # x265's crf 0 is not lossless by itself, as x264's is
                 codec_options["x265-params"] = "log-level=error" + (":lossless=1" if settings.crf == 0 else "")
