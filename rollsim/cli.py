@@ -511,7 +511,11 @@ def cmd_fit_camera(args) -> int:
     check_directory_files(out, FILES, args.force)  # before the work, not after; made when written
     frames = []
     notes: list[str] = []
+    recording = frame_rate_hz = None
     if video is not None:
+        from rollsim.video.read import probe_video, recording_settings
+
+        recording, frame_rate_hz = recording_settings(video), probe_video(video).frame_rate_hz
         frames = list(_video_input_frames(video, args, VIDEO_FIT_FRAMES, notes))
         for line in notes:
             print(f"rollsim: note: {line}", file=sys.stderr)
@@ -529,7 +533,8 @@ def cmd_fit_camera(args) -> int:
     base = load_scene(args.scene, args.overrides)
     try:
         fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
-                         progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True))
+                         progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True),
+                         recording=recording, frame_rate_hz=frame_rate_hz)
         comparison = compare(frames, fit)
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
@@ -542,6 +547,10 @@ def cmd_fit_camera(args) -> int:
           f"diameter {est['led_diameter_px'].value:.1f} px")
     if fit.channel != "grey":
         print(f"colour frames: fitted on their {fit.channel} plane")
+    if video is not None:
+        print(f"video: rendered through {recording.codec} at {recording.rate_control()}, GOP "
+              f"{recording.gop_frames or 'one second'}, {recording.chroma}, as the file was encoded" if recording
+              else "video: its codec is not one rollsim renders (h264, hevc); fitted without it")
     missing = [name for name, e in est.items() if e.source == "not identified"]
     if missing:
         print(f"not identified from these frames (the base scene's values, reasons in report.md): {', '.join(missing)}")
@@ -1155,6 +1164,8 @@ def _add_bench_commands(sub) -> None:
             "error, the re-rendered frames' row-profile correlation and the time, against the targets")
     p.add_argument("--seed", type=int, default=1, help="seed the hidden cameras are drawn from (default 1)")
     p.add_argument("--cameras", type=_positive_int, default=40, help="hidden cameras (default 40)")
+    p.add_argument("--video", action="store_true",
+                   help="record each camera's frames as a phone's H.264 video (17 Mb/s), and fit them as such")
     p.add_argument("--max-height", type=_positive_int, default=2160,
                    help="largest frame height drawn, px (default 2160; smaller for a quick check)")
     p.add_argument("--workers", type=_workers, default=1, help="cameras fitted in parallel (default 1: one core)")

@@ -154,6 +154,20 @@ def test_the_bench_draws_renders_fits_and_scores_hidden_cameras():
     assert "not counted" in text and "median fit time" in text
 
 
+def test_the_bench_records_hidden_cameras_as_video_and_fits_them_as_such():
+    # `rollsim bench fit-camera --video`, one camera: its frames through a
+    # phone's H.264 (17 Mb/s), the fit told the encoding as a file tells it.
+    from rollsim.bench.fit_camera import draw_cameras, format_summary, hidden_scene, run_bench, video_recording
+
+    cam = draw_cameras(13, 1, 300)[0]
+    recording = video_recording(cam)
+    assert hidden_scene(cam, recording=recording).effects.video_codec.bitrate_bps == 17e6
+    result = run_bench(13, 1, max_height_px=300, video=True)
+    row, summary = result["rows"][0], result["summary"]
+    assert summary["video"] and "recorded as H.264 video" in format_summary(summary)
+    assert row["fitted"] and abs(row["row_time_error"]) < 0.02
+
+
 def test_a_flat_profile_correlates_with_nothing_and_warns_of_nothing():
     from rollsim.fit.check import aligned_correlation
 

@@ -19,6 +19,7 @@ the median fit time at most 30 s.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import time
@@ -118,9 +119,23 @@ def draw_cameras(seed: int, n: int, max_height_px: int = 2160) -> list[HiddenCam
     return cameras
 
 
-def hidden_scene(cam: HiddenCamera, noise: bool = True):
+# A phone's recording (--video): H.264 at 17 Mb/s, 4:2:0 (4:4:4 where the
+# frame's width or height is odd), the frames one GOP.
+VIDEO_BITRATE_BPS = 17_000_000
+
+
+def video_recording(cam: HiddenCamera):
+    """How the hidden camera's frames are recorded with ``--video``: a :class:`rollsim.video.VideoSettings`."""
+    from rollsim.video.settings import VideoSettings
+
+    chroma = "444" if cam.width_px % 2 or cam.height_px % 2 else "420"
+    return VideoSettings(container="mkv", bitrate_bps=VIDEO_BITRATE_BPS, gop_frames=FRAMES, chroma=chroma)
+
+
+def hidden_scene(cam: HiddenCamera, noise: bool = True, recording=None):
     """The scene that renders a hidden camera's frames: the base scene with its camera and LED
-    (without its temporal noise when ``noise`` is False)."""
+    (without its temporal noise when ``noise`` is False), recorded as ``recording``
+    (:class:`rollsim.video.VideoSettings`: ``effects.video_codec``) when given."""
     from rollsim.fit.camera import gain_per_full_scale
     from rollsim.optics import led_image_size_px
     from rollsim.optics.scene_light import ambient_electron_rates, led_electron_rate
@@ -146,6 +161,10 @@ def hidden_scene(cam: HiddenCamera, noise: bool = True):
         overrides.append(f"effects.isp_smoothing.sigma_rows_px={cam.smoothing_rows}")
     if not noise:
         overrides += ["effects.shot_noise=false", "effects.read_noise=false"]
+    if recording is not None:
+        overrides += [f"effects.video_codec.codec={recording.codec}", f"effects.video_codec.chroma={recording.chroma}",
+                      f"effects.video_codec.bitrate_bps={recording.bitrate_bps}",
+                      f"effects.video_codec.gop_frames={recording.gop_frames}"]
     scene = load_scene(BASE_SCENE, overrides)
     size_mm = scene.led.size_mm * cam.led_diameter_px / led_image_size_px(scene)
     scene = load_scene(BASE_SCENE, [*overrides, f"led.size_mm={size_mm}"])
@@ -216,8 +235,12 @@ def stripe_contrast_8bit(cam: HiddenCamera) -> float:
     return max((float(np.ptp(f)) for f in folds if f is not None), default=0.0)
 
 
-def run_camera(cam: HiddenCamera) -> dict:
-    """Render, fit and compare one hidden camera; its row of the benchmark."""
+def run_camera(cam: HiddenCamera, video: bool = False) -> dict:
+    """Render, fit and compare one hidden camera; its row of the benchmark.
+
+    ``video``: the frames are recorded as a phone's video (:func:`video_recording`),
+    and the fit is told the encoding, as a video file's header tells it.
+    """
     from rollsim.errors import RollsimError
     from rollsim.fit import compare, fit_camera
     from rollsim.render import render_frames
@@ -225,12 +248,14 @@ def run_camera(cam: HiddenCamera) -> dict:
 
     ok, why = readable(cam)
     row = {"camera": asdict(cam), "readable": ok, "why_not_readable": why or None}
-    scene = hidden_scene(cam)
+    recording = video_recording(cam) if video else None
+    scene = hidden_scene(cam, recording=recording)
     images, _ = render_frames(scene, FRAMES)
     frames = [np.asarray(im) for im in images]
     started = time.perf_counter()
     try:
-        fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []))
+        fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []), recording=recording,
+                         frame_rate_hz=scene.camera.frame_rate_hz if video else None)
         seconds = time.perf_counter() - started
         comparison = compare(frames, fit)
     except (ValueError, RollsimError) as exc:  # a refusal (no square wave), or a fault the table shows
@@ -247,7 +272,7 @@ def run_camera(cam: HiddenCamera) -> dict:
         exposure_error=est["exposure_us"].value / scene.camera.exposure_us - 1.0,
         temporal_noise_error=(noise[1] / noise[0] - 1.0) if noise[0] > 0 else None,
         correlation=float(min(comparison.correlations)),
-        correlation_ceiling=correlation_ceiling(cam, frames, fit),
+        correlation_ceiling=correlation_ceiling(cam, frames, fit, recording),
         binning_found=int(est["binning_rows"].value),
         # What the stripes were read as, for the misses' diagnosis.
         fitted_gamma=est["tone_gamma"].value, fitted_smoothing_rows=est["isp_smoothing_rows"].value,
@@ -257,7 +282,7 @@ def run_camera(cam: HiddenCamera) -> dict:
     return row
 
 
-def correlation_ceiling(cam: HiddenCamera, frames: Sequence[np.ndarray], fit) -> float:
+def correlation_ceiling(cam: HiddenCamera, frames: Sequence[np.ndarray], fit, recording=None) -> float:
     """The row-profile correlation the truth itself reaches: the frames against
     frames of the hidden scene rendered again with other noise (another
     seed), read as the fit's comparison reads them (its plane, band and
@@ -266,7 +291,7 @@ def correlation_ceiling(cam: HiddenCamera, frames: Sequence[np.ndarray], fit) ->
     from rollsim.fit.check import aligned_correlation
     from rollsim.render import render_frames
 
-    again, _ = render_frames(hidden_scene(replace(cam, seed=cam.seed + 1)), len(frames))
+    again, _ = render_frames(hidden_scene(replace(cam, seed=cam.seed + 1), recording=recording), len(frames))
     rows, cols = fit.band
     return float(min(aligned_correlation(a[rows, cols].mean(axis=1), b[rows, cols].mean(axis=1), fit.period_rows)
                      for a, b in zip(fit.grey(frames), fit.grey(again))))
@@ -290,7 +315,7 @@ def misses(row: dict) -> list[str]:
     return out
 
 
-def summarise(rows: Sequence[dict], seed: int) -> dict:
+def summarise(rows: Sequence[dict], seed: int, video: bool = False) -> dict:
     """Counts against each target, and the misses."""
     counted = [r for r in rows if r["readable"]]
     fitted = [r for r in counted if r.get("fitted")]
@@ -298,7 +323,7 @@ def summarise(rows: Sequence[dict], seed: int) -> dict:
     meet = {name: sum(1 for r in fitted if name not in misses(r))
             for name in ("row time", "exposure", "noise", "correlation")}
     return {
-        "seed": seed, "cameras": len(rows), "counted": len(counted), "fitted": len(fitted),
+        "seed": seed, "video": video, "cameras": len(rows), "counted": len(counted), "fitted": len(fitted),
         "fitted_fraction": len(fitted) / len(counted) if counted else None,
         "within_target": meet, "all_targets": sum(1 for r in fitted if not misses(r)),
         "median_seconds": float(np.median(times)) if times else None,
@@ -311,22 +336,24 @@ def summarise(rows: Sequence[dict], seed: int) -> dict:
     }
 
 
-def run_bench(seed: int, cameras: int, workers: int = 1, max_height_px: int = 2160, progress=None) -> dict:
-    """Draw, render, fit and compare ``cameras`` hidden cameras; the rows and the summary."""
+def run_bench(seed: int, cameras: int, workers: int = 1, max_height_px: int = 2160, progress=None,
+              video: bool = False) -> dict:
+    """Draw, render, fit and compare ``cameras`` hidden cameras; the rows and the summary
+    (``video``: recorded as a phone's video, :func:`run_camera`)."""
     drawn = draw_cameras(seed, cameras, max_height_px)
     rows = []
     if workers > 1:
         with ProcessPoolExecutor(workers) as pool:
-            for row in pool.map(run_camera, drawn):
+            for row in pool.map(functools.partial(run_camera, video=video), drawn):
                 rows.append(row)
                 if progress:
                     progress(row)
     else:
         for cam in drawn:
-            rows.append(run_camera(cam))
+            rows.append(run_camera(cam, video))
             if progress:
                 progress(rows[-1])
-    return {"rows": rows, "summary": summarise(rows, seed)}
+    return {"rows": rows, "summary": summarise(rows, seed, video)}
 
 
 def _pct(x) -> str:
@@ -359,7 +386,8 @@ def format_summary(s: dict) -> str:
     meet = s["within_target"]
     frac = "n/a" if s["fitted_fraction"] is None else f"{100 * s['fitted_fraction']:.0f} %"
     median = "n/a" if s["median_seconds"] is None else f"{s['median_seconds']:.1f} s"
-    return (f"seed {s['seed']}: {s['cameras']} cameras, {s['counted']} with a readable square wave, "
+    recorded = " recorded as H.264 video (17 Mb/s)" if s.get("video") else ""
+    return (f"seed {s['seed']}: {s['cameras']} cameras{recorded}, {s['counted']} with a readable square wave, "
             f"{s['fitted']} fitted ({frac}; target ≥ 90 %); of the fitted: row time within 0.5 % {meet['row time']}, "
             f"exposure within 10 % (15 % saturated) {meet['exposure']}, temporal noise within 20 % {meet['noise']}, "
             f"correlation ≥ 0.98 {meet['correlation']}, all four {s['all_targets']}; median fit time {median} "
@@ -379,7 +407,7 @@ def main(args) -> int:
             print(f"rollsim: bench fit-camera: camera {c['index']} ({c['width_px']}x{c['height_px']}): {state}",
                   file=sys.stderr, flush=True)
 
-    result = run_bench(args.seed, args.cameras, args.workers, args.max_height, progress)
+    result = run_bench(args.seed, args.cameras, args.workers, args.max_height, progress, video=args.video)
     print(format_rows(result["rows"]))
     print(format_summary(result["summary"]))
     if args.json:

@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import replace
 from typing import Literal, Optional
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from rollsim.effects.base import Effect, EffectParams
 from rollsim.errors import RollsimError
@@ -46,6 +46,12 @@ class VideoCodec(EffectParams):
     preset: Literal["ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow", "slower",
                     "veryslow"] = "superfast"  # rollsim.video.settings.DEFAULT_PRESET (a test keeps them one)
     chroma: Literal["420", "444", "gray"] = "420"
+
+    @field_validator("chroma", mode="before")
+    @classmethod
+    def _chroma_as_text(cls, value):
+        # --set effects.video_codec.chroma=420 reads as YAML: the number 420.
+        return str(value) if isinstance(value, int) and not isinstance(value, bool) else value
 
     @model_validator(mode="after")
     def _one_rate_control(self) -> "VideoCodec":

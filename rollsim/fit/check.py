@@ -94,7 +94,9 @@ def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
     from rollsim.render import render_frames
 
     frames = fit.grey(frames)
-    images, _ = render_frames(fit.scene, len(frames))
+    from rollsim.fit.refine import one_gop
+
+    images, _ = render_frames(one_gop(fit.scene, len(frames)), len(frames))
     rendered = fit.grey(images)
     rows, cols = fit.band
     real = [f[rows, cols].mean(axis=1) for f in frames]

@@ -27,11 +27,12 @@ FRAME_GAP = 1.01
 FULL_WELL_MARGIN = 1.05
 # The scene model's bounds (rollsim.scene.model), which a fit is held to.
 MAX_AMBIENT_LUX, MAX_INTENSITY_CD, MAX_LED_SIZE_MM = 1e7, 1e7, 1e4
+MAX_PATTERN_E = 1e4  # row_noise's and column_fpn's std_e
 # The largest OFF level (a fraction of the ON level) the fit sets.
 MAX_OFF_LEVEL = 0.5
 # Effects the fit sets or leaves out; the base scene's others are kept.
 FITTED_EFFECTS = ("bayer", "tone_curve", "isp_smoothing", "row_noise", "column_fpn", "led_profile", "sharpening", "jpeg",
-                  "glare")
+                  "glare", "video_codec")
 
 
 def led_disk_px(m: Measured, shape) -> tuple[float, float, float]:
@@ -96,17 +97,31 @@ def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, 
     if smoothing > 0:
         effects["isp_smoothing"] = {"sigma_rows_px": round(smoothing, 4)}
     read_e = p.read_lin / p.k_lin
+    # The scene model's bound: a gain fitted near zero (frames whose codec
+    # took the temporal noise away) would put these in the millions of electrons.
     if p.row_lin is not None and p.row_lin / p.k_lin > 0.05 * read_e:
-        effects["row_noise"] = {"std_e": round(p.row_lin / p.k_lin, 4)}
+        effects["row_noise"] = {"std_e": round(min(p.row_lin / p.k_lin, MAX_PATTERN_E), 4)}
     if p.col_lin is not None and p.col_lin / p.k_lin > 0.05 * read_e:
-        effects["column_fpn"] = {"std_e": round(p.col_lin / p.k_lin, 4)}
+        effects["column_fpn"] = {"std_e": round(min(p.col_lin / p.k_lin, MAX_PATTERN_E), 4)}
     if profile is not None:
         effects["led_profile"] = {"profile": "table", "radial_table": profile}
     return effects
 
 
+def recording_effect(recording) -> dict:
+    """``effects.video_codec`` of a recording's encoding (:func:`rollsim.video.read.recording_settings`)."""
+    effect = {"codec": recording.codec, "preset": recording.preset, "chroma": recording.chroma}
+    if recording.crf is not None:
+        effect["crf"] = recording.crf
+    else:
+        effect["bitrate_bps"] = float(recording.bitrate_bps)
+    if recording.gop_frames is not None:
+        effect["gop_frames"] = recording.gop_frames
+    return effect
+
+
 def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters, notes: list,
-                 plane: str = "grey") -> Scene:
+                 plane: str = "grey", recording=None, frame_rate_hz: float | None = None) -> Scene:
     """The base scene with the fitted camera, ISP, LED image and ambient light.
 
     ``plane``: what of the frames was fitted, ``grey`` or a colour plane
@@ -114,6 +129,9 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     Bayer filter and demosaicing (RGGB, the effect's defaults), whose blur
     and noise the fit then sees as the frames' were seen, and the fitted
     levels are those of the plane's channel (:func:`plane_response`).
+    ``recording`` (:class:`rollsim.video.VideoSettings`): the frames came
+    from a video so encoded, which the scene then renders through
+    (``video_codec``), at the video's ``frame_rate_hz``.
     """
     from rollsim.optics import led_image_size_px
     from rollsim.optics.scene_light import ambient_electron_rates
@@ -132,6 +150,8 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     # Stills do not show the frame rate: the base scene's, unless the rows
     # read out, or the exposure, take longer than its frame period (then
     # the longer of the two, the readout with a 1 % gap).
+    if frame_rate_hz is not None:  # a video's rate, unlike stills'
+        camera["frame_rate_hz"] = frame_rate_hz
     readout_s = shape[0] * row_time_s
     exposure_s = p.exposure_rows * row_time_s
     needed_s = max(readout_s * FRAME_GAP, exposure_s)
@@ -160,6 +180,8 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     data["effects"] = _effects(data.get("effects", {}), p, gamma, smoothing, m.profile)
     if colour:
         data["effects"]["bayer"] = {"pattern": "RGGB"}
+    if recording is not None:
+        data["effects"]["video_codec"] = recording_effect(recording)
     x, y, diameter = led_disk_px(m, shape)
     data["led"]["position_px"] = [x, y]
     data["led"]["shape"] = "disk"

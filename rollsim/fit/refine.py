@@ -67,7 +67,8 @@ class CameraFit:
 
 
 def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, iterations: int = 4,
-               progress: Callable[[str], None] | None = None) -> CameraFit:
+               progress: Callable[[str], None] | None = None, recording=None,
+               frame_rate_hz: float | None = None) -> CameraFit:
     """Fit a camera, its ISP and the LED's image to frames of a square-wave LED.
 
     The parameters read off the frames' statistics are then refined by
@@ -94,6 +95,13 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         kept round's noise is then matched alone (:data:`NOISE_ROUNDS`).
     progress : callable, optional
         Called with a line at each stage.
+    recording : VideoSettings, optional
+        The frames come from a video so encoded
+        (:func:`rollsim.video.read.recording_settings`): the fitted scene
+        renders through the same codec (``video_codec``), so the codec's
+        loss of noise and detail is the simulator's too, and cancels.
+    frame_rate_hz : float, optional
+        The frames' rate (a video's); default the base scene's.
 
     Returns
     -------
@@ -137,9 +145,10 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             "fitting the stripes and the noise")
         target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning)
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
+    video = {"recording": recording, "frame_rate_hz": frame_rate_hz}
     params, noise = direct(target, base)
     notes: list[str] = []
-    scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel)
+    scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel, **video)
     best = None
     for k in range(iterations + 1):
         rendered = measure_rendered(scene, len(frames), channel, target)
@@ -150,7 +159,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             break
         params = corrected(params, noise, target, rendered)
         notes = []
-        scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel)
+        scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel, **video)
         say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
             f"(mismatch of the last {score:.3g})")
     assert best is not None  # the loop runs at least once
@@ -162,7 +171,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         trial = dataclasses.replace(params, **{name: getattr(corrected(params, noise, target, rendered), name)
                                                for name in ("k_lin", "read_lin")})
         trial_notes: list[str] = []
-        trial_scene = fitted_scene(base, shape, clock_hz, target, trial, trial_notes, plane=channel)
+        trial_scene = fitted_scene(base, shape, clock_hz, target, trial, trial_notes, plane=channel, **video)
         trial_rendered = measure_rendered(trial_scene, len(frames), channel, target)
         if noise_mismatch(target, trial_rendered, trial.gamma) >= noise_mismatch(target, rendered, params.gamma):
             break
@@ -214,9 +223,19 @@ def measure_rendered(scene: Scene, n_frames: int, channel: str, target: Measured
     binning rendered (groups from row 0)."""
     from rollsim.render import render_frames
 
-    images, _ = render_frames(scene, n_frames)
+    images, _ = render_frames(one_gop(scene, n_frames), n_frames)
     return measure(as_fitted(images, channel), scene.link.clock_hz, row_time=(scene.camera.row_time_s, 0.0),
                    region=target.region, start=target.stripes, binning=(scene.camera.binning_rows, 0))
+
+
+def one_gop(scene: Scene, n_frames: int) -> Scene:
+    """``scene`` with its ``video_codec`` (if any) coding ``n_frames`` frames as one GOP:
+    a longer GOP would render frames that are not measured."""
+    codec = scene.effects.video_codec
+    if codec is None or (codec.gop_frames or math.inf) <= n_frames:
+        return scene
+    return scene.model_copy(update={"effects": scene.effects.model_copy(
+        update={"video_codec": codec.model_copy(update={"gop_frames": n_frames})})})
 
 
 def moving_stripes(frames: Sequence[np.ndarray]) -> tuple[slice, float] | None:

@@ -19,7 +19,8 @@ import numpy as np
 
 from rollsim.errors import RollsimError, short_repr
 
-__all__ = ["VIDEO_SUFFIXES", "VideoInfo", "count_video_frames", "is_video_file", "probe_video", "read_video_frames"]
+__all__ = ["VIDEO_SUFFIXES", "VideoInfo", "count_video_frames", "is_video_file", "probe_video", "read_video_frames",
+           "recording_settings"]
 
 # Files taken for video by their name (a directory holding one stands for it).
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".m4v", ".avi", ".webm")
@@ -159,6 +160,57 @@ def count_video_frames(path: Path) -> int:
             from None
     finally:
         container.close()
+
+
+# Packets read for the key frames' spacing (ten seconds at 30 frames/s).
+_GOP_PACKETS = 300
+_CHROMA = {"yuv420p": "420", "yuvj420p": "420", "nv12": "420", "nv21": "420", "yuv444p": "444", "yuvj444p": "444",
+           "gbrp": "444", "gray": "gray"}
+
+
+def recording_settings(path: Path):
+    """How a video was encoded, as :class:`rollsim.video.VideoSettings` can redo it, or None.
+
+    The codec (H.264 or HEVC; None for another), its average bitrate (the
+    stream's, else the file's size over its duration), the GOP (the median
+    spacing of the key frames in the first :data:`_GOP_PACKETS` packets;
+    one second's when there is one key frame only) and the chroma. The
+    encoder's preset is not in the file: rollsim's default stands in.
+    """
+    import av
+
+    from rollsim.video.settings import VideoSettings
+
+    info = probe_video(path)
+    codec = {"h264": "h264", "hevc": "hevc"}.get(info.codec)
+    chroma = _CHROMA.get(info.pixel_format)
+    if codec is None or chroma is None:
+        return None
+    container = _open(Path(path))
+    try:
+        stream = container.streams.video[0]
+        keys, count = [], 0
+        for packet in container.demux(stream):
+            if not packet.size:
+                continue
+            if packet.is_keyframe:
+                keys.append(count)
+            count += 1
+            if count >= _GOP_PACKETS:
+                break
+        bitrate = stream.bit_rate or container.bit_rate
+        if not bitrate and container.duration:
+            bitrate = Path(path).stat().st_size * 8 / (container.duration / av.time_base)
+    except av.FFmpegError:
+        return None
+    finally:
+        container.close()
+    gaps = np.diff(keys)
+    gop = int(np.median(gaps)) if gaps.size else None
+    if not bitrate or bitrate < 1e4:
+        return None
+    return VideoSettings(container="mkv", codec=codec, bitrate_bps=int(min(bitrate, 1e9)), gop_frames=gop,
+                         chroma=chroma)
 
 
 def _upright(image: np.ndarray, clockwise_deg: int) -> np.ndarray:

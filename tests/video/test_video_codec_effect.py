@@ -79,3 +79,23 @@ def test_the_effect_and_render_container_share_their_defaults():
     assert defaults.preset == DEFAULT_PRESET == VideoSettings().preset
     assert get_args(VideoCodec.model_fields["preset"].annotation) == PRESETS
     assert defaults.chroma == VideoSettings().chroma and defaults.codec == VideoSettings().codec
+
+
+def test_chroma_given_on_the_command_line_reads_as_its_name():
+    """--set effects.video_codec.chroma=444 is YAML's number 444: taken as the name '444'."""
+    scene = load_scene("paper-default", [*SMALL, "effects.video_codec.chroma=444"])
+    assert scene.effects.video_codec.chroma == "444"
+
+
+def test_a_fit_with_a_vanishing_gain_still_makes_a_valid_scene():
+    """Frames whose codec took the temporal noise away fit a gain near zero: the
+    row and column patterns, in electrons, are held to the scene model's bound."""
+    from rollsim.fit.camera import Parameters
+    from rollsim.fit.fitted_scene import MAX_PATTERN_E, _effects
+    from rollsim.scene import scene_from_dict
+
+    p = Parameters(exposure_rows=3.0, smoothing_rows=0.0, gamma=1.0, on_lin=0.5, off_lin=0.01, k_lin=1e-12,
+                   read_lin=1e-14, row_lin=1e-3, col_lin=1e-3)
+    effects = _effects({}, p, 1.0, 0.0, None)
+    assert effects["row_noise"]["std_e"] == effects["column_fpn"]["std_e"] == MAX_PATTERN_E
+    scene_from_dict({"effects": effects}, "fitted")  # within the schema
