@@ -160,8 +160,10 @@ def test_the_bench_records_hidden_cameras_as_video_and_fits_them_as_such():
     from rollsim.bench.fit_camera import draw_cameras, format_summary, hidden_scene, run_bench, video_recording
 
     cam = draw_cameras(13, 1, 300)[0]
-    recording = video_recording(cam)
-    assert hidden_scene(cam, recording=recording).effects.video_codec.bitrate_bps == 17e6
+    recording = video_recording(cam, 30.0)
+    # A phone's bits per pixel: 17 Mb/s for 1080p30.
+    assert recording.bitrate_bps == pytest.approx(17e6 * cam.width_px * cam.height_px / (1920 * 1080), abs=1)
+    assert hidden_scene(cam, recording=recording).effects.video_codec.bitrate_bps == recording.bitrate_bps
     result = run_bench(13, 1, max_height_px=300, video=True)
     row, summary = result["rows"][0], result["summary"]
     assert summary["video"] and "recorded as H.264 video" in format_summary(summary)

@@ -76,3 +76,14 @@ def test_an_led_filling_the_frame_has_no_disk():
     stack = np.asarray(frames, dtype=np.float64)
     assert disk_from_swing(stack.max(axis=0), stack.min(axis=0), stripes, PERIOD_ROWS) is None
     assert _region(frames, stripes).disk is None
+
+
+def test_a_disk_whose_band_lies_outside_the_frame_is_refused_in_words():
+    """A disk found wrongly (its centre beyond the frame's edge) leaves no band to read:
+    a ValueError naming it, not the means of an empty slice."""
+    from rollsim.fit.measure import LedDisk, central_band
+
+    assert central_band(LedDisk(50.0, 40.0, 20.0, 10), (100, 120)) == (slice(23, 57), slice(44, 56))
+    for disk in (LedDisk(130.0, 40.0, 20.0, 10), LedDisk(50.0, -30.0, 20.0, 10)):
+        with pytest.raises(ValueError, match="no band of rows inside the 120x100 px frame"):
+            central_band(disk, (100, 120))

@@ -119,17 +119,22 @@ def draw_cameras(seed: int, n: int, max_height_px: int = 2160) -> list[HiddenCam
     return cameras
 
 
-# A phone's recording (--video): H.264 at 17 Mb/s, 4:2:0 (4:4:4 where the
-# frame's width or height is odd), the frames one GOP.
-VIDEO_BITRATE_BPS = 17_000_000
+# A phone's recording (--video): H.264 at a phone's bits per pixel (17 Mb/s
+# for 1920x1080 at 30 frames/s, so a crop keeps its frame's rate per
+# pixel), 4:2:0 (4:4:4 where the frame's width or height is odd), the
+# frames one GOP.
+PHONE_BITRATE_BPS, PHONE_PIXELS, PHONE_FRAME_RATE_HZ = 17_000_000, 1920 * 1080, 30.0
+MIN_VIDEO_BITRATE_BPS = 100_000
 
 
-def video_recording(cam: HiddenCamera):
+def video_recording(cam: HiddenCamera, frame_rate_hz: float = PHONE_FRAME_RATE_HZ):
     """How the hidden camera's frames are recorded with ``--video``: a :class:`rollsim.video.VideoSettings`."""
     from rollsim.video.settings import VideoSettings
 
     chroma = "444" if cam.width_px % 2 or cam.height_px % 2 else "420"
-    return VideoSettings(container="mkv", bitrate_bps=VIDEO_BITRATE_BPS, gop_frames=FRAMES, chroma=chroma)
+    bits_per_pixel = PHONE_BITRATE_BPS / (PHONE_PIXELS * PHONE_FRAME_RATE_HZ)
+    bitrate = max(MIN_VIDEO_BITRATE_BPS, int(round(bits_per_pixel * cam.width_px * cam.height_px * frame_rate_hz)))
+    return VideoSettings(container="mkv", bitrate_bps=bitrate, gop_frames=FRAMES, chroma=chroma)
 
 
 def hidden_scene(cam: HiddenCamera, noise: bool = True, recording=None):
@@ -248,7 +253,7 @@ def run_camera(cam: HiddenCamera, video: bool = False) -> dict:
 
     ok, why = readable(cam)
     row = {"camera": asdict(cam), "readable": ok, "why_not_readable": why or None}
-    recording = video_recording(cam) if video else None
+    recording = video_recording(cam, hidden_scene(cam).camera.frame_rate_hz) if video else None
     scene = hidden_scene(cam, recording=recording)
     images, _ = render_frames(scene, FRAMES)
     frames = [np.asarray(im) for im in images]
@@ -386,7 +391,7 @@ def format_summary(s: dict) -> str:
     meet = s["within_target"]
     frac = "n/a" if s["fitted_fraction"] is None else f"{100 * s['fitted_fraction']:.0f} %"
     median = "n/a" if s["median_seconds"] is None else f"{s['median_seconds']:.1f} s"
-    recorded = " recorded as H.264 video (17 Mb/s)" if s.get("video") else ""
+    recorded = " recorded as H.264 video (a phone's 17 Mb/s at 1080p30, per pixel)" if s.get("video") else ""
     return (f"seed {s['seed']}: {s['cameras']} cameras{recorded}, {s['counted']} with a readable square wave, "
             f"{s['fitted']} fitted ({frac}; target ≥ 90 %); of the fitted: row time within 0.5 % {meet['row time']}, "
             f"exposure within 10 % (15 % saturated) {meet['exposure']}, temporal noise within 20 % {meet['noise']}, "

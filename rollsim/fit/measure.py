@@ -271,13 +271,24 @@ def disk_mask(shape: tuple[int, int], disk: LedDisk, scale: float = 1.0) -> np.n
 
 def central_band(disk: LedDisk, shape: tuple[int, int], half_width: float = 0.3,
                  height: float = 0.85) -> tuple[slice, slice]:
-    """The rows and columns of the band through the LED's centre that lies inside it."""
+    """The rows and columns of the band through the LED's centre that lies inside it.
+
+    Raises
+    ------
+    ValueError
+        A disk whose band lies outside the frame (a disk found wrongly:
+        no row or column of it to read).
+    """
     r = disk.radius_px
     c0 = max(0, int(np.floor(disk.centre_x_px - half_width * r)))
     c1 = min(shape[1], int(np.ceil(disk.centre_x_px + half_width * r)))
     r0 = max(0, int(np.floor(disk.centre_y_px - height * r)))
     r1 = min(shape[0], int(np.ceil(disk.centre_y_px + height * r)))
-    return slice(r0, r1), slice(c0, max(c1, c0 + 1))
+    c1 = max(c1, c0 + 1)
+    if r1 <= r0 or c1 > shape[1]:
+        raise ValueError(f"the LED's disk found at ({disk.centre_x_px:.0f}, {disk.centre_y_px:.0f}) px, radius "
+                         f"{r:.0f} px, has no band of rows inside the {shape[1]}x{shape[0]} px frame")
+    return slice(r0, r1), slice(c0, c1)
 
 
 @dataclass(frozen=True)
