@@ -10,6 +10,7 @@ rotation its container gives (its display matrix, or an older muxer's
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,7 +21,7 @@ import numpy as np
 from rollsim.errors import RollsimError, short_repr
 
 __all__ = ["VIDEO_SUFFIXES", "VideoInfo", "count_video_frames", "is_video_file", "probe_video", "read_video_frames",
-           "recording_settings"]
+           "recording_settings", "stripes_run_along_columns"]
 
 # Files taken for video by their name (a directory holding one stands for it).
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".m4v", ".avi", ".webm")
@@ -232,7 +233,9 @@ def read_video_frames(path: Path, start: int = 0, count: Optional[int] = None, r
         Frames to read (default: to the end).
     rotate_deg : int, optional
         Clockwise turn applied to every frame (a multiple of 90); default:
-        the container's rotation.
+        the container's rotation, else a quarter turn clockwise where the
+        stripes run along the columns (:func:`stripes_run_along_columns`,
+        said in ``notes``).
     notes : list, optional
         Lines about what was assumed (a variable frame rate read as
         consecutive frames) are appended here.
@@ -243,12 +246,53 @@ def read_video_frames(path: Path, start: int = 0, count: Optional[int] = None, r
         As :func:`probe_video`; fewer frames than ``start + count``; a file
         that ends inside its data (truncated or corrupt).
     """
-    import av
-
     info = probe_video(path)
     if rotate_deg is not None and rotate_deg % 90:
         raise RollsimError(f"--rotate = {rotate_deg}: must be a multiple of 90 degrees")
     turn = info.rotation_deg if rotate_deg is None else rotate_deg % 360
+    frames = _decoded_frames(path, info, start, count, turn, notes)
+    if rotate_deg is not None or info.rotation_deg:
+        yield from frames
+        return
+    # No rotation given: a recording turned without saying so shows its
+    # stripes along the columns.
+    head = list(itertools.islice(frames, 2))
+    if len(head) == 2 and stripes_run_along_columns(*head):
+        if notes is not None:
+            notes.append(f"{path}: the stripes run along the columns: frames turned 90 degrees clockwise "
+                         "(--rotate 270 turns them the other way)")
+        yield from (_upright(frame, 90) for frame in itertools.chain(head, frames))
+    else:
+        yield from itertools.chain(head, frames)
+
+
+# A rolling shutter's stripes make each row one level: between two frames
+# the change varies from row to row. Frames whose change varies this many
+# times more (in variance) from column to column, and by more than a level,
+# were recorded turned.
+COLUMN_DOMINANCE = 4.0
+MIN_STRIPE_VARIANCE = 1.0
+
+
+def stripes_run_along_columns(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two consecutive frames' change varies along the columns rather than the rows.
+
+    The difference of the two frames cancels the still scene; its column
+    means vary with stripes that run along the columns, its row means with
+    stripes that run along the rows, as a rolling shutter makes them.
+    """
+    d = np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)
+    if d.ndim == 3:
+        d = d.mean(axis=2)
+    along_rows, along_columns = float(d.mean(axis=1).var()), float(d.mean(axis=0).var())
+    return along_columns > max(COLUMN_DOMINANCE * along_rows, MIN_STRIPE_VARIANCE)
+
+
+def _decoded_frames(path: Path, info: VideoInfo, start: int, count: Optional[int], turn: int,
+                    notes: Optional[list]) -> Iterator[np.ndarray]:
+    """Frames ``start`` … of the video, turned clockwise by ``turn``; the checks of :func:`read_video_frames`."""
+    import av
+
     want = None if count is None else start + count
     container = _open(Path(path))
     seen = 0

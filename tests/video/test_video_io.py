@@ -193,3 +193,38 @@ def test_portrait_recordings_are_read_upright(tmp_path, quarter_turns):
         assert np.array_equal(a, np.stack([b] * 3, axis=-1))
     # --rotate overrides the container: 0 keeps the frames as stored.
     assert np.array_equal(next(read_video_frames(path, rotate_deg=0))[..., 0], stored[0])
+
+
+def _striped(n: int, turned: bool) -> list[np.ndarray]:
+    """Frames of moving rolling-shutter stripes (a level per row), stored turned a quarter counterclockwise."""
+    rng = np.random.default_rng(4)
+    rows = np.arange(H)[:, None]
+    frames = []
+    for t in range(n):
+        image = 128 + 60 * np.sign(np.sin(2 * np.pi * (rows + 7 * t) / 20.0)) + rng.normal(0, 3, (H, W))
+        image = np.clip(np.rint(image), 0, 255).astype(np.uint8)
+        frames.append(np.ascontiguousarray(np.rot90(image)) if turned else image)
+    return frames
+
+
+def test_stripes_along_the_columns_are_turned_upright_and_said(tmp_path):
+    """No rotation in the file, stripes along the columns: the frames are turned a quarter
+    clockwise (the stripes then run along the rows) and a note says so; upright ones are kept."""
+    from rollsim.video.read import stripes_run_along_columns
+
+    upright = _striped(4, turned=False)
+    stored = _striped(4, turned=True)
+    assert stripes_run_along_columns(*stored[:2]) and not stripes_run_along_columns(*upright[:2])
+    for name, frames, turned in (("side.mp4", stored, True), ("up.mp4", upright, False)):
+        path = tmp_path / name
+        h, w = frames[0].shape
+        with VideoWriter(path, VideoSettings(crf=0, chroma="gray"), w, h, 30.0, False, {"output": "gray8"}) as writer:
+            for frame in frames:
+                writer.write(frame)
+        notes: list[str] = []
+        back = list(read_video_frames(path, notes=notes))
+        expected = [np.rot90(f, k=-1) for f in frames] if turned else frames
+        assert all(np.array_equal(a, b) for a, b in zip(back, expected, strict=True))
+        assert bool(notes) == turned and (not turned or "stripes run along the columns" in notes[0])
+        # --rotate 0 keeps them as stored, without a guess.
+        assert np.array_equal(next(read_video_frames(path, rotate_deg=0)), frames[0])
