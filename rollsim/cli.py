@@ -434,12 +434,20 @@ def _input_video(items: Sequence[str]) -> Optional[Path]:
 
 
 def _video_input_frames(video: Path, args, default_count: Optional[int], notes: list):
-    """The frames of ``video`` that --start/--frames (or ``default_count``) pick, streamed, upright (--rotate)."""
+    """The frames of ``video`` that --start/--frames pick (without --frames, at most
+    ``default_count``, None: to the end), streamed, upright (--rotate)."""
+    import itertools
+
     from rollsim.video.read import read_video_frames
 
-    count = args.video_frames if args.video_frames is not None else default_count
-    _video_frames_asked(video, args.start, count)
-    return read_video_frames(video, args.start, count, rotate_deg=args.rotate, notes=notes)
+    if args.video_frames is not None:
+        _video_frames_asked(video, args.start, args.video_frames)
+        return read_video_frames(video, args.start, args.video_frames, rotate_deg=args.rotate, notes=notes)
+    available = _video_frames_asked(video, args.start, None)  # None: the header does not say
+    frames = read_video_frames(video, args.start, None, rotate_deg=args.rotate, notes=notes)
+    if default_count is None or (available is not None and available <= default_count):
+        return frames
+    return itertools.islice(frames, default_count)
 
 
 def _add_video_input(parser: argparse.ArgumentParser, default: str = "to the end") -> None:

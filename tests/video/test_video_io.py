@@ -228,3 +228,17 @@ def test_stripes_along_the_columns_are_turned_upright_and_said(tmp_path):
         assert bool(notes) == turned and (not turned or "stripes run along the columns" in notes[0])
         # --rotate 0 keeps them as stored, without a guess.
         assert np.array_equal(next(read_video_frames(path, rotate_deg=0)), frames[0])
+
+
+@pytest.mark.parametrize("held,expected", [(6, 6), (12, 10)])
+def test_fit_cameras_default_reads_at_most_ten_frames(tmp_path, held, expected):
+    """fit-camera without --frames reads the first 10 frames of a video, or all of a shorter one."""
+    import argparse
+
+    from rollsim.cli import VIDEO_FIT_FRAMES, _video_input_frames
+
+    path = tmp_path / "v.mp4"
+    _write(path, _grey(held), VideoSettings(crf=0), metadata={"output": "gray8"})
+    args = argparse.Namespace(video_frames=None, start=0, rotate=None)
+    assert VIDEO_FIT_FRAMES == 10
+    assert len(list(_video_input_frames(path, args, VIDEO_FIT_FRAMES, []))) == expected
