@@ -1136,6 +1136,12 @@ def _add_bench_commands(sub) -> None:
     _add_json_file(p)
     _add_force(p)
 
+    p = add("video", "video at 1080p: rendering to H.264 (frames/s) per preset, and reading it back (ms/frame)")
+    p.add_argument("--frames", type=_positive_int, default=150, help="frames rendered per run (default 150)")
+    p.add_argument("--workers", type=_workers, default=None, help="render workers (default 2)")
+    _add_json_file(p)
+    _add_force(p)
+
     p = add("stress", "decoder outcome rates on the paper, stress and effect scenes (the table in docs/evaluation.md)")
     p.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: every bundled paper-, stress- and effect- scene)")
     _inputs(p, scenes=["scenes"])
