@@ -64,7 +64,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional, Sequence, cast
+from typing import Any, Callable, Optional, Sequence, cast
 
 from rollsim.bench.common import machine, strict_floats
 from rollsim.errors import OutputError, RollsimError
@@ -122,33 +122,33 @@ DRIFT_PER_TREMOR = 6.0
 SHAKE_ROWS_PER_CHIP = (1.0, 2.0, 4.5, 8.0)
 
 
+def _with_rows_per_chip(rows: Sequence[float], values: Sequence, keys_of: Callable[[Any], dict]) -> dict:
+    """Every (rows per chip, value) pair, rows per chip outermost: the rows-per-chip
+    keys and ``keys_of(value)``'s, zipped."""
+    per_rows = _rows_per_chip(rows)
+    points: dict = {}
+    for k in range(len(rows)):
+        for value in values:
+            for key, item in [*((key, column[k]) for key, column in per_rows.items()), *keys_of(value).items()]:
+                points.setdefault(key, []).append(item)
+    return points
+
+
+def _hand(tremor: float) -> dict:
+    """The hand's keys for a tremor: drift :data:`DRIFT_PER_TREMOR` times it, roll as pan and tilt."""
+    drift = _round(DRIFT_PER_TREMOR * tremor)
+    return {"effects.motion.mode": "handheld", "effects.motion.tremor_deg": tremor, "effects.motion.drift_deg": drift,
+            "effects.motion.roll_tremor_deg": tremor, "effects.motion.roll_drift_deg": drift}
+
+
 def _shake(tremor_deg: Sequence[float], rows: Sequence[float]) -> dict:
     """Every (rows per chip, tremor) pair: the rows-per-chip keys and the hand's, zipped."""
-    per_rows = _rows_per_chip(rows)
-    points: dict = {key: [] for key in [*per_rows, "effects.motion.mode", "effects.motion.tremor_deg",
-                                        "effects.motion.drift_deg", "effects.motion.roll_tremor_deg",
-                                        "effects.motion.roll_drift_deg"]}
-    for k in range(len(rows)):
-        for tremor in tremor_deg:
-            for key, values in per_rows.items():
-                points[key].append(values[k])
-            drift = _round(DRIFT_PER_TREMOR * tremor)
-            for key, value in (("mode", "handheld"), ("tremor_deg", tremor), ("drift_deg", drift),
-                               ("roll_tremor_deg", tremor), ("roll_drift_deg", drift)):
-                points[f"effects.motion.{key}"].append(value)
-    return points
+    return _with_rows_per_chip(rows, tremor_deg, _hand)
 
 
 def _compression(bitrates_mbps: Sequence[float], rows: Sequence[float]) -> dict:
     """Every (rows per chip, bitrate) pair: the rows-per-chip keys and the codec's bitrate, zipped."""
-    per_rows = _rows_per_chip(rows)
-    points: dict = {key: [] for key in [*per_rows, "effects.video_codec.bitrate_bps"]}
-    for k in range(len(rows)):
-        for mbps in bitrates_mbps:
-            for key, values in per_rows.items():
-                points[key].append(values[k])
-            points["effects.video_codec.bitrate_bps"].append(_round(mbps * 1e6))
-    return points
+    return _with_rows_per_chip(rows, bitrates_mbps, lambda mbps: {"effects.video_codec.bitrate_bps": _round(mbps * 1e6)})
 
 
 def _saturation(full_wells: Sequence[float]) -> dict:
