@@ -20,8 +20,7 @@ from pydantic import Field, field_validator, model_validator
 
 from rollsim.effects.base import Effect, EffectParams
 from rollsim.errors import RollsimError
-from rollsim.video.settings import DEFAULT_BITRATE_BPS, MAX_CRF, VideoSettings, check_encoder, \
-    encoder_and_format
+from rollsim.video.settings import DEFAULT_BITRATE_BPS, MAX_CRF, VideoSettings, check_encoder, frame_size_problem
 
 # The frames of a GOP held twice (rendered and decoded) while it is coded:
 # bytes per pixel for 30 frames of rgb8, a one-second GOP at 30 frames/s.
@@ -75,14 +74,12 @@ def check(scene, params: VideoCodec) -> Optional[str]:
     try:
         settings = settings_of(params)
         check_encoder(settings, colour)
-        _, fmt = encoder_and_format(settings, colour)
     except RollsimError as exc:
         return f"effects.video_codec: {str(exc).replace('--', '')}"
-    if fmt == "yuv420p" and (cam.width_px % 2 or cam.height_px % 2):
-        return (f"effects.video_codec: 4:2:0 needs an even width and height, the frames are "
-                f"{cam.width_px}x{cam.height_px} px (chroma: '444')")
-    if params.codec == "hevc" and min(cam.width_px, cam.height_px) < 64:
-        return "effects.video_codec: x265 needs frames of 64 px or more a side (codec: h264)"
+    problem = frame_size_problem(settings, cam.width_px, cam.height_px, colour)
+    if problem is not None:
+        setting, why, instead = problem
+        return f"effects.video_codec: {why} ({setting}: '{instead}')"
     return None
 
 

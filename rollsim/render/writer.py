@@ -169,21 +169,13 @@ def video_metadata(scene: Scene, n_frames: int, video: VideoSettings) -> dict[st
 def check_video_scene(scene: Scene, video: VideoSettings) -> None:
     """Refuse, before any frame, a scene whose frames the video cannot hold or this machine cannot encode."""
     from rollsim.errors import RollsimError
-    from rollsim.video.settings import check_encoder, encoder_and_format
+    from rollsim.video.settings import check_frames
 
     cam = scene.camera
     if cam.output not in ("gray8", "rgb8"):
         raise RollsimError(f"--container {video.container}: camera.output {cam.output}; a video holds 8-bit frames "
                            "(gray8 or rgb8)")
-    colour = cam.output == "rgb8"
-    check_encoder(video, colour)
-    _, fmt = encoder_and_format(video, colour)
-    if fmt in ("yuv420p",) and (cam.width_px % 2 or cam.height_px % 2):
-        raise RollsimError(f"--chroma 420: {cam.width_px}x{cam.height_px} px frames; 4:2:0 needs an even width "
-                           "and height (use --chroma 444)")
-    if video.codec == "hevc" and min(cam.width_px, cam.height_px) < 64:
-        raise RollsimError(f"--codec hevc: {cam.width_px}x{cam.height_px} px frames; x265 needs 64 px or more "
-                           "a side (use --codec h264)")
+    check_frames(video, cam.width_px, cam.height_px, cam.output == "rgb8")
 
 
 def _write_video(scene: Scene, n_frames: int, workers: int, directory: Path, truth_file,

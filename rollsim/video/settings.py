@@ -18,7 +18,7 @@ from typing import Optional
 from rollsim.errors import RollsimError, short_repr
 
 __all__ = ["CHROMA_FORMATS", "CONTAINERS", "DEFAULT_BITRATE_BPS", "ENCODERS", "PRESETS", "VideoSettings",
-           "check_encoder", "encoder_and_format", "parse_bitrate"]
+           "check_encoder", "check_frames", "encoder_and_format", "frame_size_problem", "parse_bitrate"]
 
 CONTAINERS = ("mp4", "mkv")
 # The codec names users give, and FFmpeg's encoders for them.
@@ -137,6 +137,36 @@ def encoder_and_format(settings: VideoSettings, colour: bool) -> tuple[str, str]
     if settings.chroma == "444":
         return _RGB_444[settings.codec] if colour else (settings.encoder, "yuv444p")
     return settings.encoder, "yuv420p"
+
+
+# x265 corrupts its heap on frames narrower or lower than this (a glibc abort at 48x64 px).
+MIN_HEVC_SIDE_PX = 64
+
+
+def frame_size_problem(settings: VideoSettings, width_px: int, height_px: int,
+                       colour: bool) -> Optional[tuple[str, str, str]]:
+    """Why frames of this size cannot be coded so: ``(setting, why, a value that can)``, or None.
+
+    4:2:0 halves the chroma in both directions (an even width and height);
+    x265 needs :data:`MIN_HEVC_SIDE_PX` a side. ``setting`` is ``chroma`` or
+    ``codec``; the caller names it as its user gives it (an option, a scene key).
+    """
+    size = f"the frames are {width_px}x{height_px} px"
+    if encoder_and_format(settings, colour)[1] == "yuv420p" and (width_px % 2 or height_px % 2):
+        return "chroma", f"4:2:0 needs an even width and height, {size}", "444"
+    if settings.codec == "hevc" and min(width_px, height_px) < MIN_HEVC_SIDE_PX:
+        return "codec", f"x265 needs frames of {MIN_HEVC_SIDE_PX} px or more a side, {size}", "h264"
+    return None
+
+
+def check_frames(settings: VideoSettings, width_px: int, height_px: int, colour: bool) -> None:
+    """Refuse, in one line naming the option, frames this machine cannot code so:
+    :func:`check_encoder`, then :func:`frame_size_problem`."""
+    check_encoder(settings, colour)
+    problem = frame_size_problem(settings, width_px, height_px, colour)
+    if problem is not None:
+        setting, why, instead = problem
+        raise RollsimError(f"--{setting} {getattr(settings, setting)}: {why} (use --{setting} {instead})")
 
 
 def check_encoder(settings: VideoSettings, colour: bool = False) -> None:

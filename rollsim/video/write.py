@@ -14,8 +14,7 @@ from typing import Any, Optional
 
 import numpy as np
 
-from rollsim.errors import RollsimError
-from rollsim.video.settings import DEFAULT_BITRATE_BPS, VideoSettings, check_encoder, encoder_and_format
+from rollsim.video.settings import DEFAULT_BITRATE_BPS, VideoSettings, check_frames, encoder_and_format
 
 __all__ = ["VideoWriter", "video_name"]
 
@@ -52,11 +51,8 @@ class VideoWriter:
                  colour: bool, metadata: Optional[dict] = None):
         import av
 
-        check_encoder(settings, colour)
+        check_frames(settings, width_px, height_px, colour)
         encoder, fmt = encoder_and_format(settings, colour)
-        if fmt == "yuv420p" and (width_px % 2 or height_px % 2):
-            raise RollsimError(f"--chroma 420: {width_px}x{height_px} px frames; 4:2:0 needs an even width and "
-                               "height (use --chroma 444)")
         self._colour = colour
         self._shape = (height_px, width_px, 3) if colour else (height_px, width_px)
         # Bit-exact muxing: no random segment UID, date or library version, so
