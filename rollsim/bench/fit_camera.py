@@ -167,9 +167,9 @@ def hidden_scene(cam: HiddenCamera, noise: bool = True, recording=None):
     if not noise:
         overrides += ["effects.shot_noise=false", "effects.read_noise=false"]
     if recording is not None:
-        overrides += [f"effects.video_codec.codec={recording.codec}", f"effects.video_codec.chroma={recording.chroma}",
-                      f"effects.video_codec.bitrate_bps={recording.bitrate_bps}",
-                      f"effects.video_codec.gop_frames={recording.gop_frames}"]
+        from rollsim.effects.video_codec import params_of
+
+        overrides += [f"effects.video_codec.{key}={value}" for key, value in params_of(recording).items()]
     scene = load_scene(BASE_SCENE, overrides)
     size_mm = scene.led.size_mm * cam.led_diameter_px / led_image_size_px(scene)
     scene = load_scene(BASE_SCENE, [*overrides, f"led.size_mm={size_mm}"])

@@ -66,6 +66,19 @@ def settings_of(params: VideoCodec) -> VideoSettings:
                          gop_frames=params.gop_frames, preset=params.preset, chroma=params.chroma)
 
 
+def params_of(settings: VideoSettings) -> dict:
+    """The effect's parameters (keys under ``effects.video_codec``) that code as ``settings`` do:
+    :func:`settings_of`'s inverse (the container aside: the effect has none)."""
+    params: dict = {"codec": settings.codec, "preset": settings.preset, "chroma": settings.chroma}
+    if settings.crf is not None:
+        params["crf"] = settings.crf
+    else:
+        params["bitrate_bps"] = float(settings.bitrate_bps or DEFAULT_BITRATE_BPS)
+    if settings.gop_frames is not None:
+        params["gop_frames"] = settings.gop_frames
+    return params
+
+
 def check(scene, params: VideoCodec) -> Optional[str]:
     cam = scene.camera
     if cam.output not in ("gray8", "rgb8"):

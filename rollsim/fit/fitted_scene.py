@@ -108,18 +108,6 @@ def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, 
     return effects
 
 
-def recording_effect(recording) -> dict:
-    """``effects.video_codec`` of a recording's encoding (:func:`rollsim.video.read.recording_settings`)."""
-    effect = {"codec": recording.codec, "preset": recording.preset, "chroma": recording.chroma}
-    if recording.crf is not None:
-        effect["crf"] = recording.crf
-    else:
-        effect["bitrate_bps"] = float(recording.bitrate_bps)
-    if recording.gop_frames is not None:
-        effect["gop_frames"] = recording.gop_frames
-    return effect
-
-
 def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters, notes: list,
                  plane: str = "grey", recording=None, frame_rate_hz: float | None = None) -> Scene:
     """The base scene with the fitted camera, ISP, LED image and ambient light.
@@ -181,7 +169,9 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     if colour:
         data["effects"]["bayer"] = {"pattern": "RGGB"}
     if recording is not None:
-        data["effects"]["video_codec"] = recording_effect(recording)
+        from rollsim.effects.video_codec import params_of
+
+        data["effects"]["video_codec"] = params_of(recording)
     x, y, diameter = led_disk_px(m, shape)
     data["led"]["position_px"] = [x, y]
     data["led"]["shape"] = "disk"

@@ -99,3 +99,13 @@ def test_a_fit_with_a_vanishing_gain_still_makes_a_valid_scene():
     effects = _effects({}, p, 1.0, 0.0, None)
     assert effects["row_noise"]["std_e"] == effects["column_fpn"]["std_e"] == MAX_PATTERN_E
     scene_from_dict({"effects": effects}, "fitted")  # within the schema
+
+
+@pytest.mark.parametrize("settings", [dict(bitrate_bps=2_000_000, gop_frames=12, chroma="444", codec="hevc"),
+                                      dict(crf=0, preset="medium", chroma="gray")])
+def test_settings_and_the_effects_parameters_map_both_ways(settings):
+    from rollsim.effects.video_codec import VideoCodec, params_of, settings_of
+    from rollsim.video.settings import VideoSettings
+
+    given = VideoSettings(container="mkv", **settings)
+    assert settings_of(VideoCodec(**params_of(given))) == given
