@@ -29,31 +29,27 @@ TARGET_READ_MS = 3.0
 READ_PASSES = 2
 
 
-def render_rate(scene, frames: int, workers: int, video) -> float:
-    """Frames per second of writing ``frames`` frames of ``scene`` (a video, or PNGs when ``video`` is None)."""
-    from rollsim.render.writer import render_to_dir
-
-    with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        render_to_dir(scene, Path(tmp) / "out", frames, workers=workers, video=video)
-        return frames / (time.perf_counter() - start)
-
-
-def read_ms_per_frame(scene, frames: int, workers: int, video) -> float:
-    """Median over :data:`READ_PASSES` of the ms per frame to read the rendered video back."""
+def render_rate(scene, frames: int, workers: int, video=None, read_back: bool = False) -> tuple[float, float | None]:
+    """Frames per second of writing ``frames`` frames of ``scene`` (a video, or PNGs when
+    ``video`` is None); with ``read_back``, also the median over :data:`READ_PASSES` of the
+    ms per frame to read the video back (None otherwise)."""
     from rollsim.render.writer import render_to_dir
     from rollsim.video.read import read_video_frames
     from rollsim.video.write import video_name
 
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out"
+        start = time.perf_counter()
         render_to_dir(scene, out, frames, workers=workers, video=video)
+        rate = frames / (time.perf_counter() - start)
+        if not read_back or video is None:
+            return rate, None
         passes = []
         for _ in range(READ_PASSES):
             start = time.perf_counter()
             count = sum(1 for _ in read_video_frames(out / video_name(video)))
             passes.append((time.perf_counter() - start) / max(1, count))
-    return 1e3 * sorted(passes)[len(passes) // 2]
+    return rate, 1e3 * sorted(passes)[len(passes) // 2]
 
 
 def bench_video(frames: int = FRAMES, presets: Sequence[str] = PRESETS, workers: int = 2,
@@ -63,13 +59,13 @@ def bench_video(frames: int = FRAMES, presets: Sequence[str] = PRESETS, workers:
     from rollsim.video.settings import DEFAULT_PRESET, VideoSettings
 
     scene = load_scene(scene_name, overrides or [])
-    png = render_rate(scene, frames, workers, None)
+    png, _ = render_rate(scene, frames, workers)
     rows: list[dict[str, Any]] = []
     for preset in presets:
-        video = VideoSettings(preset=preset)
-        rows.append({"preset": preset, "default": preset == DEFAULT_PRESET,
-                     "render_frames_per_s": round(render_rate(scene, frames, workers, video), 1),
-                     "read_ms_per_frame": round(read_ms_per_frame(scene, frames, workers, video), 2)})
+        rate, read_ms = render_rate(scene, frames, workers, VideoSettings(preset=preset), read_back=True)
+        assert read_ms is not None  # a video was written and read back
+        rows.append({"preset": preset, "default": preset == DEFAULT_PRESET, "render_frames_per_s": round(rate, 1),
+                     "read_ms_per_frame": round(read_ms, 2)})
     cam = scene.camera
     return {"scene": scene_name, "resolution": f"{cam.width_px}x{cam.height_px}", "output": cam.output,
             "frames": frames, "workers": workers, "machine": machine(), "png_frames_per_s": round(png, 1),
