@@ -381,7 +381,9 @@ def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], dec
             raise RollsimError(f"{truth_file}: line {line}: frame {frame} after frame {before}; frames must increase")
     frame_dir = run_dir / "frames"
     if not frame_dir.is_dir():
-        video = _rendered_video(run_dir)
+        from rollsim.video.write import rendered_video
+
+        video = rendered_video(run_dir)
         if video is None:
             raise RollsimError(f"{frame_dir}: not found; evaluate checks the truth against the rendered frames")
         _check_video_frames(video, truth_file, len(frames))
@@ -399,14 +401,6 @@ def check_consistency(run_dir: Path, truth: list[dict], decoded: list[dict], dec
         raise RollsimError(f"{truth_file}: lists {len(frames)} frames but {frame_dir.name}/ holds {len(on_disk)} "
                            f"({on_disk[extra[0]].name} has no truth line); the render did not finish")
     return _decode_checks(run_dir, truth_file, frames, decoded, decoded_file, decode_info, payload_bits)
-
-
-def _rendered_video(run_dir: Path):
-    """The video a render directory holds in place of ``frames/`` (``frames.mp4`` or ``.mkv``), or None."""
-    for name in ("frames.mp4", "frames.mkv"):
-        if (run_dir / name).is_file():
-            return run_dir / name
-    return None
 
 
 def _check_video_frames(video: Path, truth_file: Path, n_truth: int) -> None:

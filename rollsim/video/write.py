@@ -14,9 +14,9 @@ from typing import Any, Optional
 
 import numpy as np
 
-from rollsim.video.settings import DEFAULT_BITRATE_BPS, VideoSettings, check_frames, encoder_and_format
+from rollsim.video.settings import CONTAINERS, DEFAULT_BITRATE_BPS, VideoSettings, check_frames, encoder_and_format
 
-__all__ = ["VideoWriter", "video_name"]
+__all__ = ["VideoWriter", "rendered_video", "video_name"]
 
 # The largest denominator of a frame rate written as a fraction (NTSC's 30000/1001 fits).
 _RATE_DENOMINATOR = 1001
@@ -27,6 +27,15 @@ _FULL_RANGE = 2
 def video_name(settings: VideoSettings) -> str:
     """The file a render writes its frames to: ``frames.mp4`` or ``frames.mkv``."""
     return f"frames.{settings.container}"
+
+
+def rendered_video(directory: Path) -> Optional[Path]:
+    """The video a render wrote into ``directory`` (:func:`video_name`, in :data:`CONTAINERS`' order), or None."""
+    for container in CONTAINERS:
+        path = Path(directory) / video_name(VideoSettings(container=container))
+        if path.is_file():
+            return path
+    return None
 
 
 class VideoWriter:
