@@ -883,7 +883,7 @@ def _add_scene_commands(sub) -> None:
 
 def _add_video_options(parser: argparse.ArgumentParser) -> None:
     """--container and the encoding options of a rendered video (docs/video.md)."""
-    from rollsim.video.settings import CHROMA_FORMATS, CONTAINERS, ENCODERS, PRESETS
+    from rollsim.video.settings import CHROMA_FORMATS, CONTAINERS, ENCODERS, MAX_B_FRAMES, PRESETS, TUNES
 
     g = parser.add_argument_group("video (instead of PNG frames)")
     g.add_argument("--container", choices=CONTAINERS, default=None,
@@ -895,6 +895,9 @@ def _add_video_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--gop", type=_positive_int, default=None, help="frames between key frames (default: one second's)")
     g.add_argument("--preset", choices=PRESETS, default=None, help="encoder speed preset (default superfast)")
     g.add_argument("--chroma", choices=CHROMA_FORMATS, default=None, help="chroma subsampling (default 420)")
+    g.add_argument("--tune", choices=TUNES, default=None, help="encoder tuning (default fastdecode; none: the preset's)")
+    g.add_argument("--b-frames", type=int, default=None, metavar="N",
+                   help=f"consecutive B-frames at most, 0-{MAX_B_FRAMES} (default 0, as phones record)")
 
 
 def _video_settings(args):
@@ -902,11 +905,13 @@ def _video_settings(args):
     from rollsim.video.settings import VideoSettings, parse_bitrate
 
     options = {"codec": args.codec, "crf": args.crf, "bitrate_bps": None if args.bitrate is None else
-               parse_bitrate(args.bitrate), "gop_frames": args.gop, "preset": args.preset, "chroma": args.chroma}
+               parse_bitrate(args.bitrate), "gop_frames": args.gop, "preset": args.preset, "chroma": args.chroma,
+               "tune": args.tune, "b_frames": args.b_frames}
     given = {key: value for key, value in options.items() if value is not None}
     if args.container is None:
         if given:
-            names = ", ".join("--" + {"bitrate_bps": "bitrate", "gop_frames": "gop"}.get(k, k) for k in given)
+            names = ", ".join("--" + {"bitrate_bps": "bitrate", "gop_frames": "gop", "b_frames": "b-frames"}.get(k, k)
+                              for k in given)
             raise RollsimError(f"{names}: video options need --container mp4 or mkv")
         return None
     return VideoSettings(container=args.container, **given)
@@ -1136,7 +1141,7 @@ def _add_bench_commands(sub) -> None:
     _add_json_file(p)
     _add_force(p)
 
-    p = add("video", "video at 1080p: rendering to H.264 (frames/s) per preset, and reading it back (ms/frame)")
+    p = add("video", "video at 1080p: rendering to H.264 (frames/s) per encoding, and reading it back (ms/frame)")
     p.add_argument("--frames", type=_positive_int, default=150, help="frames rendered per run (default 150)")
     p.add_argument("--workers", type=_workers, default=None, help="render workers (default 2)")
     _add_json_file(p)

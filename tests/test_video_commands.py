@@ -106,6 +106,26 @@ def test_video_options_need_a_container(tmp_path):
     assert not (tmp_path / "v").exists()
 
 
+def test_b_frames_and_tuning_are_written_and_found_again(tmp_path):
+    """Default: no B-frames, tuned fastdecode; asked for, B-frames are coded and a fit's recording finds them."""
+    from rollsim.video.read import recording_settings
+
+    for name, args in (("plain", []), ("b", ["--tune", "none", "--b-frames", "2"])):
+        done = run_rollsim("render", "paper-default", *SMALL, "--frames", "12", "--container", "mp4", *args,
+                           "--out", name, cwd=tmp_path)
+        assert done.returncode == 0, done.stderr
+    assert "tune fastdecode b-frames 0" in probe_video(tmp_path / "plain" / "frames.mp4").metadata["encoding"]
+    assert "tune none b-frames 2" in probe_video(tmp_path / "b" / "frames.mp4").metadata["encoding"]
+    assert recording_settings(tmp_path / "plain" / "frames.mp4").b_frames == 0
+    assert recording_settings(tmp_path / "b" / "frames.mp4").b_frames > 0
+    done = run_rollsim("render", "paper-default", *SMALL, "--container", "mp4", "--b-frames", "17", "--out", "v",
+                       cwd=tmp_path)
+    assert_one_error(done, 2, "--b-frames", "0 to 16")
+    done = run_rollsim("render", "paper-default", *SMALL, "--b-frames", "1", "--out", "v", cwd=tmp_path)
+    assert_one_error(done, 2, "--b-frames", "need --container")
+    assert not (tmp_path / "v").exists()
+
+
 def test_grey_chroma_of_colour_frames_is_refused_before_rendering(tmp_path):
     done = run_rollsim("render", "paper-default", *SMALL, "--set", "camera.output=rgb8", "--set", "effects.bayer.pattern=RGGB",
                        "--container", "mp4",

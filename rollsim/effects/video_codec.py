@@ -20,7 +20,7 @@ from pydantic import Field, field_validator, model_validator
 
 from rollsim.effects.base import Effect, EffectParams
 from rollsim.errors import RollsimError
-from rollsim.video.settings import DEFAULT_BITRATE_BPS, MAX_CRF, VideoSettings, check_encoder, frame_size_problem
+from rollsim.video.settings import DEFAULT_BITRATE_BPS, MAX_B_FRAMES, MAX_CRF, VideoSettings, check_encoder, frame_size_problem
 
 # The frames of a GOP held twice (rendered and decoded) while it is coded:
 # bytes per pixel for 30 frames of rgb8, a one-second GOP at 30 frames/s.
@@ -35,7 +35,9 @@ class VideoCodec(EffectParams):
     second; default 17e6, a phone's 1080p30). ``gop_frames``: frames from
     one key frame to the next (default: one second's). ``preset``: the
     encoder's speed preset (default ``superfast``). ``chroma``: ``420``
-    (default), ``444`` or ``gray`` (grey frames only).
+    (default), ``444`` or ``gray`` (grey frames only). ``tune``: the
+    encoder's tuning (default ``fastdecode``; ``none``: the preset's own).
+    ``b_frames``: consecutive B-frames at most (default 0, as phones code).
     """
 
     codec: Literal["h264", "hevc"] = "h264"
@@ -45,6 +47,8 @@ class VideoCodec(EffectParams):
     preset: Literal["ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow", "slower",
                     "veryslow"] = "superfast"  # rollsim.video.settings.DEFAULT_PRESET (a test keeps them one)
     chroma: Literal["420", "444", "gray"] = "420"
+    tune: Literal["none", "fastdecode", "zerolatency", "grain", "psnr", "ssim"] = "fastdecode"  # TUNES, DEFAULT_TUNE
+    b_frames: int = Field(0, ge=0, le=MAX_B_FRAMES)
 
     @field_validator("chroma", mode="before")
     @classmethod
@@ -63,13 +67,15 @@ def settings_of(params: VideoCodec) -> VideoSettings:
     """The encoding :class:`rollsim.video.VideoSettings` of the effect's parameters."""
     bitrate = None if params.crf is not None else int(round(params.bitrate_bps or DEFAULT_BITRATE_BPS))
     return VideoSettings(container="mkv", codec=params.codec, crf=params.crf, bitrate_bps=bitrate,
-                         gop_frames=params.gop_frames, preset=params.preset, chroma=params.chroma)
+                         gop_frames=params.gop_frames, preset=params.preset, chroma=params.chroma,
+                         tune=params.tune, b_frames=params.b_frames)
 
 
 def params_of(settings: VideoSettings) -> dict:
     """The effect's parameters (keys under ``effects.video_codec``) that code as ``settings`` do:
     :func:`settings_of`'s inverse (the container aside: the effect has none)."""
-    params: dict = {"codec": settings.codec, "preset": settings.preset, "chroma": settings.chroma}
+    params: dict = {"codec": settings.codec, "preset": settings.preset, "chroma": settings.chroma,
+                    "tune": settings.tune, "b_frames": settings.b_frames}
     if settings.crf is not None:
         params["crf"] = settings.crf
     else:

@@ -162,8 +162,8 @@ def video_metadata(scene: Scene, n_frames: int, video: VideoSettings) -> dict[st
     text = frame_text(scene, {"frame": 0, "start_s": 0.0})
     del text["frame"], text["start_s"], text["Software"]
     return {**text, "frames": str(n_frames), "frame_rate_hz": repr(scene.camera.frame_rate_hz),
-            "encoding": f"{video.codec} {video.rate_control()} gop {video.gop_for(scene.camera.frame_rate_hz)} "
-                        f"preset {video.preset} chroma {video.chroma}", "comment": f"rendered by rollsim {__version__}"}
+            "encoding": f"{video.describe()} gop {video.gop_for(scene.camera.frame_rate_hz)}",
+            "comment": f"rendered by rollsim {__version__}"}
 
 
 def check_video_scene(scene: Scene, video: VideoSettings) -> None:

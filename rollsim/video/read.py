@@ -19,6 +19,7 @@ from typing import Iterator, Optional
 import numpy as np
 
 from rollsim.errors import RollsimError, short_repr
+from rollsim.video.pixels import decoded_array
 
 __all__ = ["VIDEO_SUFFIXES", "VideoInfo", "count_video_frames", "is_video_file", "probe_video", "read_video_frames",
            "recording_settings", "stripes_run_along_columns"]
@@ -169,14 +170,19 @@ _CHROMA = {"yuv420p": "420", "yuvj420p": "420", "nv12": "420", "nv21": "420", "y
            "gbrp": "444", "gray": "gray"}
 
 
+# B-frames assumed of a recording that has them (x264's default; the file does not say how many).
+_B_FRAMES_GUESS = 3
+
+
 def recording_settings(path: Path):
     """How a video was encoded, as :class:`rollsim.video.VideoSettings` can redo it, or None.
 
     The codec (H.264 or HEVC; None for another), its average bitrate (the
     stream's, else the file's size over its duration), the GOP (the median
     spacing of the key frames in the first :data:`_GOP_PACKETS` packets;
-    one second's when there is one key frame only) and the chroma. The
-    encoder's preset is not in the file: rollsim's default stands in.
+    one second's when there is one key frame only), the chroma and whether
+    it holds B-frames (then x264's default of 3). The encoder's preset and
+    tuning are not in the file: rollsim's defaults stand in.
     """
     import av
 
@@ -200,6 +206,8 @@ def recording_settings(path: Path):
             if count >= _GOP_PACKETS:
                 break
         bitrate = stream.bit_rate or container.bit_rate
+        # The decoder's reorder delay (from the stream's headers): non-zero where B-frames are coded.
+        b_frames = _B_FRAMES_GUESS if stream.codec_context.has_b_frames else 0
         if not bitrate and container.duration:
             bitrate = Path(path).stat().st_size * 8 / (container.duration / av.time_base)
     except av.FFmpegError:
@@ -211,7 +219,7 @@ def recording_settings(path: Path):
     if not bitrate or bitrate < 1e4:
         return None
     return VideoSettings(container="mkv", codec=codec, bitrate_bps=int(min(bitrate, 1e9)), gop_frames=gop,
-                         chroma=chroma)
+                         chroma=chroma, b_frames=b_frames)
 
 
 def _upright(image: np.ndarray, clockwise_deg: int) -> np.ndarray:
@@ -301,7 +309,6 @@ def _decoded_frames(path: Path, info: VideoInfo, start: int, count: Optional[int
     try:
         stream = container.streams.video[0]
         stream.thread_type = "AUTO"
-        fmt = "gray" if info.grey else "rgb24"
         try:
             for frame in container.decode(stream):
                 if frame.pts is not None:
@@ -309,7 +316,7 @@ def _decoded_frames(path: Path, info: VideoInfo, start: int, count: Optional[int
                         steps.append(frame.pts - last_pts)
                     last_pts = frame.pts
                 if seen >= start:
-                    yield _upright(frame.to_ndarray(format=fmt), turn)
+                    yield _upright(decoded_array(frame, info.grey), turn)
                 seen += 1
                 if want is not None and seen >= want:
                     break

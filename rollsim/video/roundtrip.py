@@ -13,6 +13,7 @@ from typing import Sequence
 
 import numpy as np
 
+from rollsim.video.pixels import decoded_array
 from rollsim.video.settings import VideoSettings
 from rollsim.video.write import VideoWriter
 
@@ -48,10 +49,9 @@ def gop_round_trip(images: Sequence[np.ndarray], settings: VideoSettings, frame_
         for image in images:
             writer.write(np.asarray(image))
     buffer.seek(0)
-    fmt = "rgb24" if colour else "gray"
     with av.open(buffer, mode="r") as container:
         stream = container.streams.video[0]
-        out = [frame.to_ndarray(format=fmt) for frame in container.decode(stream)]
+        out = [decoded_array(frame, grey=not colour) for frame in container.decode(stream)]
     if len(out) != len(images):  # pragma: no cover - the codec drops no frame of a GOP
         raise RuntimeError(f"the codec returned {len(out)} frames for {len(images)}")
     return out

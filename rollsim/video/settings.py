@@ -3,9 +3,12 @@
 The defaults are what a phone records at 1080p30: H.264 at about 17 Mb/s,
 one key frame a second (a GOP of the frame rate's frames), 4:2:0 chroma.
 The encoder is FFmpeg's libx264 (libx265 for HEVC) as PyAV's wheels ship
-it, at its ``superfast`` preset: the fastest whose decoded frames of
-paper-default read as the PNGs do within 5 % (docs/video.md gives the
-figures for each preset and the command).
+it, at its ``superfast`` preset tuned ``fastdecode`` (CAVLC entropy coding,
+no deblocking filter), with no B-frames, as phones' hardware encoders
+mostly code: paper-default's decoded frames then read as the PNGs do within
+5 % (docs/video.md gives the figures for each setting and the command).
+The encoder runs :data:`ENCODER_THREADS` threads whatever the machine, so
+that a file's bytes do not depend on its cores.
 """
 
 from __future__ import annotations
@@ -17,8 +20,9 @@ from typing import Optional
 
 from rollsim.errors import RollsimError, short_repr
 
-__all__ = ["CHROMA_FORMATS", "CONTAINERS", "DEFAULT_BITRATE_BPS", "ENCODERS", "PRESETS", "VideoSettings",
-           "check_encoder", "check_frames", "encoder_and_format", "frame_size_problem", "parse_bitrate"]
+__all__ = ["CHROMA_FORMATS", "CONTAINERS", "DEFAULT_BITRATE_BPS", "ENCODERS", "ENCODER_THREADS", "MAX_B_FRAMES",
+           "PRESETS", "TUNES", "VideoSettings", "check_encoder", "check_frames", "encoder_and_format",
+           "frame_size_problem", "parse_bitrate"]
 
 CONTAINERS = ("mp4", "mkv")
 # The codec names users give, and FFmpeg's encoders for them.
@@ -30,6 +34,14 @@ PRESETS = ("ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "sl
 # A phone's 1080p30 H.264 recording: about 17 Mb/s.
 DEFAULT_BITRATE_BPS = 17_000_000
 DEFAULT_PRESET = "superfast"
+# x264's and x265's tunings they share; "none" leaves the preset as it is.
+TUNES = ("none", "fastdecode", "zerolatency", "grain", "psnr", "ssim")
+DEFAULT_TUNE = "fastdecode"
+# B-frames between reference frames: x264 and x265 take 0 … 16.
+MAX_B_FRAMES = 16
+# Encoder threads, fixed: x264's frame threads shape its rate control's
+# decisions, so their number (by default the machine's cores) would change the bytes.
+ENCODER_THREADS = 2
 # x264's and x265's constant-rate-factor scale (0: lossless in x264).
 MAX_CRF = 51
 
@@ -72,6 +84,10 @@ class VideoSettings:
     preset : str
         x264/x265 speed preset (:data:`PRESETS`).
     chroma : {'420', '444', 'gray'}
+    tune : str
+        x264/x265 tuning (:data:`TUNES`; ``none``: the preset's own).
+    b_frames : int
+        Consecutive B-frames at most (0: I- and P-frames only, as phones record).
     """
 
     container: str = "mp4"
@@ -81,6 +97,8 @@ class VideoSettings:
     gop_frames: Optional[int] = None
     preset: str = DEFAULT_PRESET
     chroma: str = "420"
+    tune: str = DEFAULT_TUNE
+    b_frames: int = 0
 
     def __post_init__(self) -> None:
         if self.container not in CONTAINERS:
@@ -99,6 +117,11 @@ class VideoSettings:
             raise RollsimError(f"--preset = {short_repr(self.preset)}: expected one of {', '.join(PRESETS)}")
         if self.chroma not in CHROMA_FORMATS:
             raise RollsimError(f"--chroma = {short_repr(self.chroma)}: expected one of {', '.join(CHROMA_FORMATS)}")
+        if self.tune not in TUNES:
+            raise RollsimError(f"--tune = {short_repr(self.tune)}: expected one of {', '.join(TUNES)}")
+        if not (isinstance(self.b_frames, int) and 0 <= self.b_frames <= MAX_B_FRAMES):
+            raise RollsimError(f"--b-frames = {short_repr(self.b_frames)}: must be a whole number from 0 to "
+                               f"{MAX_B_FRAMES}")
 
     @property
     def encoder(self) -> str:
@@ -110,6 +133,25 @@ class VideoSettings:
         if self.gop_frames is not None:
             return self.gop_frames
         return max(1, int(round(frame_rate_hz))) if math.isfinite(frame_rate_hz) else 30
+
+    def encoder_options(self) -> dict[str, str]:
+        """The encoder's options (FFmpeg's libx264 / libx265 names) for these settings, the rate aside."""
+        params = f"bframes={self.b_frames}"
+        if self.codec == "hevc":  # x265's crf 0 is not lossless by itself, as x264's is
+            params = (f"log-level=error:{params}:frame-threads={ENCODER_THREADS}"
+                      + (":lossless=1" if self.crf == 0 else ""))
+        options = {"preset": self.preset, "x264-params" if self.codec == "h264" else "x265-params": params,
+                   "threads": str(ENCODER_THREADS)}
+        if self.tune != "none":
+            options["tune"] = self.tune
+        if self.crf is not None:
+            options["crf"] = str(self.crf)
+        return options
+
+    def describe(self) -> str:
+        """The encoding in words, as the metadata and the benchmarks give it."""
+        return (f"{self.codec} {self.rate_control()} preset {self.preset} tune {self.tune} "
+                f"b-frames {self.b_frames} chroma {self.chroma}")
 
     def rate_control(self) -> str:
         """The rate control in words, as the docs and metadata give it."""

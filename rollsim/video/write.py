@@ -14,14 +14,13 @@ from typing import Any, Optional
 
 import numpy as np
 
+from rollsim.video.pixels import RANGE_FULL, RANGE_LIMITED, SPACE_BT601, encoder_frame
 from rollsim.video.settings import CONTAINERS, DEFAULT_BITRATE_BPS, VideoSettings, check_frames, encoder_and_format
 
 __all__ = ["VideoWriter", "rendered_video", "video_name"]
 
 # The largest denominator of a frame rate written as a fraction (NTSC's 30000/1001 fits).
 _RATE_DENOMINATOR = 1001
-# FFmpeg's AVCOL_RANGE_JPEG: levels span 0-255.
-_FULL_RANGE = 2
 
 
 def video_name(settings: VideoSettings) -> str:
@@ -79,22 +78,21 @@ class VideoWriter:
             stream: Any = self._container.add_stream(encoder, rate=rate)
             stream.width, stream.height, stream.pix_fmt = width_px, height_px, fmt
             stream.gop_size = settings.gop_for(frame_rate_hz)
-            codec_options: dict[str, str] = {"preset": settings.preset}
-            if settings.crf is not None:
-                codec_options["crf"] = str(settings.crf)
-            else:
+            if settings.crf is None:
                 # x264's average-bitrate control, deterministic with threads; its
                 # VBV (a phone's CBR-like buffer) is not: frames would differ from run to run.
                 stream.bit_rate = settings.bitrate_bps or DEFAULT_BITRATE_BPS
-            if settings.codec == "hevc":  # x265's crf 0 is not lossless by itself, as x264's is
-                codec_options["x265-params"] = "log-level=error" + (":lossless=1" if settings.crf == 0 else "")
-            stream.options = codec_options
+            stream.options = settings.encoder_options()
             stream.thread_type = "AUTO"
-            # x264 stores grey frames' levels as given, 0-255: flagged full range,
+            # Grey frames are coded as their levels, 0-255: flagged full range,
             # or a reader takes them for TV range (16-235) and stretches them.
-            self._full_range = fmt == "gray"
-            if self._full_range:
-                stream.codec_context.color_range = _FULL_RANGE
+            # Colour 4:2:0 is BT.601 limited range (rollsim.video.pixels).
+            self._format = fmt
+            if not colour:
+                stream.codec_context.color_range = RANGE_FULL
+            elif fmt == "yuv420p":
+                stream.codec_context.color_range = RANGE_LIMITED
+                stream.codec_context.colorspace = SPACE_BT601
             for key, value in (metadata or {}).items():
                 self._container.metadata[str(key)] = str(value)
         except BaseException:
@@ -105,15 +103,11 @@ class VideoWriter:
 
     def write(self, image: np.ndarray) -> None:
         """Encode the next frame (uint8, the shape given)."""
-        import av
-
         image = np.asarray(image)
         if image.shape != self._shape or image.dtype != np.uint8:
             raise ValueError(f"frame {self.frames}: {image.shape} {image.dtype}, expected {self._shape} uint8")
-        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24" if self._colour else "gray")
+        frame = encoder_frame(image, self._format)
         frame.pts = self.frames
-        if self._full_range:
-            frame.color_range = _FULL_RANGE
         for packet in self._stream.encode(frame):
             self._container.mux(packet)
         self.frames += 1

@@ -73,12 +73,15 @@ def test_the_effect_and_render_container_share_their_defaults():
     from typing import get_args
 
     from rollsim.effects.video_codec import VideoCodec
-    from rollsim.video.settings import DEFAULT_PRESET, PRESETS, VideoSettings
+    from rollsim.video.settings import DEFAULT_PRESET, DEFAULT_TUNE, PRESETS, TUNES, VideoSettings
 
     defaults = VideoCodec()
     assert defaults.preset == DEFAULT_PRESET == VideoSettings().preset
+    assert defaults.tune == DEFAULT_TUNE == VideoSettings().tune
     assert get_args(VideoCodec.model_fields["preset"].annotation) == PRESETS
+    assert get_args(VideoCodec.model_fields["tune"].annotation) == TUNES
     assert defaults.chroma == VideoSettings().chroma and defaults.codec == VideoSettings().codec
+    assert defaults.b_frames == VideoSettings().b_frames == 0
 
 
 def test_chroma_given_on_the_command_line_reads_as_its_name():
