@@ -181,12 +181,14 @@ def recording_settings(path: Path):
     stream's, else the file's size over its duration), the GOP (the median
     spacing of the key frames in the first :data:`_GOP_PACKETS` packets;
     one second's when there is one key frame only), the chroma and whether
-    it holds B-frames (then x264's default of 3). The encoder's preset and
-    tuning are not in the file: rollsim's defaults stand in.
+    it holds B-frames (then x264's default of 3). The encoder's preset is
+    not in the file: rollsim's default stands in, without the ``fastdecode``
+    tuning (:data:`rollsim.video.settings.RECORDING_TUNE`: a phone's encoder
+    deblocks).
     """
     import av
 
-    from rollsim.video.settings import VideoSettings
+    from rollsim.video.settings import RECORDING_TUNE, VideoSettings
 
     info = probe_video(path)
     codec = {"h264": "h264", "hevc": "hevc"}.get(info.codec)
@@ -219,7 +221,7 @@ def recording_settings(path: Path):
     if not bitrate or bitrate < 1e4:
         return None
     return VideoSettings(container="mkv", codec=codec, bitrate_bps=int(min(bitrate, 1e9)), gop_frames=gop,
-                         chroma=chroma, b_frames=b_frames)
+                         chroma=chroma, b_frames=b_frames, tune=RECORDING_TUNE)
 
 
 def _upright(image: np.ndarray, clockwise_deg: int) -> np.ndarray:
