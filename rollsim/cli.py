@@ -895,7 +895,7 @@ def _add_video_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--gop", type=_positive_int, default=None, help="frames between key frames (default: one second's)")
     g.add_argument("--preset", choices=PRESETS, default=None, help="encoder speed preset (default superfast)")
     g.add_argument("--chroma", choices=CHROMA_FORMATS, default=None, help="chroma subsampling (default 420)")
-    g.add_argument("--tune", choices=TUNES, default=None, help="encoder tuning (default fastdecode; none: the preset's)")
+    g.add_argument("--tune", choices=TUNES, default=None, help="encoder tuning (default none: the preset's own)")
     g.add_argument("--b-frames", type=int, default=None, metavar="N",
                    help=f"consecutive B-frames at most, 0-{MAX_B_FRAMES} (default 0, as phones record)")
 

@@ -78,8 +78,10 @@ def test_phone_default_video_reads_as_the_png_frames_do(tmp_path):
 
 
 def test_row_time_and_fit_read_a_video(tmp_path):
+    """At 100 Mb/s, enough of the temporal noise survives the codec to fit the gain. At a phone's
+    17 Mb/s it does not: the ISO comes out 45-73 % high over seeds 1-4 (docs/video.md)."""
     done = run_rollsim("render", "paper-default", *SQUARE_20CM, "--frames", "12", "--container", "mp4",
-                       "--out", "sq", cwd=tmp_path)
+                       "--bitrate", "100M", "--out", "sq", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     row = run_rollsim("estimate-row-time", "sq/frames.mp4", "--clock-hz", "8000", "--start", "2", "--json",
                       "rt.json", cwd=tmp_path)
@@ -93,10 +95,13 @@ def test_row_time_and_fit_read_a_video(tmp_path):
     # The fitted scene renders through the video's codec, as the file was encoded.
     assert "video: rendered through h264" in fit.stdout
     camera = yaml.safe_load((tmp_path / "fit" / "camera.yaml").read_text())
+    # The encoding the file's tags name, exactly.
     assert camera["effects"]["video_codec"]["codec"] == "h264"
+    assert camera["effects"]["video_codec"]["bitrate_bps"] == pytest.approx(1e8)
+    assert camera["effects"]["video_codec"]["gop_frames"] == 30
     assert camera["camera"]["frame_rate_hz"] == pytest.approx(30.0)
-    # The codec takes part of the temporal noise away: fitted without it, the
-    # gain comes out at 227 ISO for 400; through it, within a third.
+    # The codec takes part of the temporal noise away; fitted through it, the
+    # gain comes back within a third (seeds 1 and 4: +5 % and +12 %).
     assert abs(est["iso"]["value"] / 400.0 - 1) < 1 / 3
 
 
@@ -107,18 +112,21 @@ def test_video_options_need_a_container(tmp_path):
 
 
 def test_b_frames_and_tuning_are_written_and_found_again(tmp_path):
-    """Default: no B-frames, tuned fastdecode; asked for, B-frames are coded and a fit's recording finds them."""
+    """Default: no B-frames, the preset's own tuning; asked for, B-frames and a tuning are written, and
+    a fit's recording takes them from the tags."""
     from rollsim.video.read import recording_settings
 
-    for name, args in (("plain", []), ("b", ["--tune", "none", "--b-frames", "2"])):
+    for name, args in (("plain", []), ("b", ["--tune", "fastdecode", "--b-frames", "2"])):
         done = run_rollsim("render", "paper-default", *SMALL, "--frames", "12", "--container", "mp4", *args,
                            "--out", name, cwd=tmp_path)
         assert done.returncode == 0, done.stderr
-    assert "tune fastdecode b-frames 0" in probe_video(tmp_path / "plain" / "frames.mp4").metadata["encoding"]
-    assert "tune none b-frames 2" in probe_video(tmp_path / "b" / "frames.mp4").metadata["encoding"]
+    assert "tune none b-frames 0" in probe_video(tmp_path / "plain" / "frames.mp4").metadata["encoding"]
+    assert "tune fastdecode b-frames 2" in probe_video(tmp_path / "b" / "frames.mp4").metadata["encoding"]
+    # A video rollsim wrote is redone with the settings its tags name.
     plain = recording_settings(tmp_path / "plain" / "frames.mp4")
-    assert plain.b_frames == 0 and plain.tune == "none"  # a phone's encoder deblocks: redone without fastdecode
-    assert recording_settings(tmp_path / "b" / "frames.mp4").b_frames > 0
+    assert (plain.tune, plain.b_frames, plain.bitrate_bps, plain.preset) == ("none", 0, 17_000_000, "superfast")
+    again = recording_settings(tmp_path / "b" / "frames.mp4")
+    assert (again.tune, again.b_frames) == ("fastdecode", 2)
     done = run_rollsim("render", "paper-default", *SMALL, "--container", "mp4", "--b-frames", "17", "--out", "v",
                        cwd=tmp_path)
     assert_one_error(done, 2, "--b-frames", "0 to 16")

@@ -122,21 +122,20 @@ def draw_cameras(seed: int, n: int, max_height_px: int = 2160) -> list[HiddenCam
 # A phone's recording (--video): H.264 at a phone's bits per pixel (17 Mb/s
 # for 1920x1080 at 30 frames/s, so a crop keeps its frame's rate per
 # pixel), 4:2:0 (4:4:4 where the frame's width or height is odd), the
-# frames one GOP, coded as a phone's encoder does (deblocked, no B-frames:
-# the tuning a video's fit assumes, rollsim.video.settings.RECORDING_TUNE).
+# frames one GOP, at rollsim's default encoding (deblocked, no B-frames, as
+# a phone's encoder codes).
 PHONE_BITRATE_BPS, PHONE_PIXELS, PHONE_FRAME_RATE_HZ = 17_000_000, 1920 * 1080, 30.0
 MIN_VIDEO_BITRATE_BPS = 100_000
 
 
 def video_recording(cam: HiddenCamera, frame_rate_hz: float = PHONE_FRAME_RATE_HZ):
     """How the hidden camera's frames are recorded with ``--video``: a :class:`rollsim.video.VideoSettings`."""
-    from rollsim.video.settings import RECORDING_TUNE, VideoSettings
+    from rollsim.video.settings import VideoSettings
 
     chroma = "444" if cam.width_px % 2 or cam.height_px % 2 else "420"
     bits_per_pixel = PHONE_BITRATE_BPS / (PHONE_PIXELS * PHONE_FRAME_RATE_HZ)
     bitrate = max(MIN_VIDEO_BITRATE_BPS, int(round(bits_per_pixel * cam.width_px * cam.height_px * frame_rate_hz)))
-    return VideoSettings(container="mkv", bitrate_bps=bitrate, gop_frames=FRAMES, chroma=chroma,
-                         tune=RECORDING_TUNE)
+    return VideoSettings(container="mkv", bitrate_bps=bitrate, gop_frames=FRAMES, chroma=chroma)
 
 
 def hidden_scene(cam: HiddenCamera, noise: bool = True, recording=None):

@@ -36,7 +36,7 @@ class VideoCodec(EffectParams):
     one key frame to the next (default: one second's). ``preset``: the
     encoder's speed preset (default ``superfast``). ``chroma``: ``420``
     (default), ``444`` or ``gray`` (grey frames only). ``tune``: the
-    encoder's tuning (default ``fastdecode``; ``none``: the preset's own).
+    encoder's tuning (default ``none``: the preset's own).
     ``b_frames``: consecutive B-frames at most (default 0, as phones code).
     """
 
@@ -47,7 +47,7 @@ class VideoCodec(EffectParams):
     preset: Literal["ultrafast", "superfast", "veryfast", "faster", "fast", "medium", "slow", "slower",
                     "veryslow"] = "superfast"  # rollsim.video.settings.DEFAULT_PRESET (a test keeps them one)
     chroma: Literal["420", "444", "gray"] = "420"
-    tune: Literal["none", "fastdecode", "zerolatency", "grain", "psnr", "ssim"] = "fastdecode"  # TUNES, DEFAULT_TUNE
+    tune: Literal["none", "fastdecode", "zerolatency", "grain", "psnr", "ssim"] = "none"  # TUNES, DEFAULT_TUNE
     b_frames: int = Field(0, ge=0, le=MAX_B_FRAMES)
 
     @field_validator("chroma", mode="before")

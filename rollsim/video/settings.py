@@ -2,12 +2,12 @@
 
 The defaults are what a phone records at 1080p30: H.264 at about 17 Mb/s,
 one key frame a second (a GOP of the frame rate's frames), 4:2:0 chroma.
-No B-frames, as phones' hardware encoders mostly code. The encoder is
-FFmpeg's libx264 (libx265 for HEVC) as PyAV's wheels ship it, at its
-``superfast`` preset tuned ``fastdecode`` (CAVLC entropy coding, no
-deblocking filter): of the encodings measured, the fastest whose frames of
-paper-default read as the PNGs do within 5 % and decode in under 3 ms a
-1080p frame (docs/video.md gives the figures for each and the command).
+No B-frames, as phones' hardware encoders mostly code; CABAC entropy
+coding and the deblocking filter, as they code in the Main and High
+profiles. The encoder is FFmpeg's libx264 (libx265 for HEVC) as PyAV's
+wheels ship it, at its ``superfast`` preset. The ``fastdecode`` tuning
+(CAVLC, no deblocking) decodes in a third of the time but reads far worse
+at low bitrates (docs/video.md gives the figures and the commands).
 The encoder runs :data:`ENCODER_THREADS` threads whatever the machine, so
 that a file's bytes do not depend on its cores.
 """
@@ -22,7 +22,7 @@ from typing import Optional
 from rollsim.errors import RollsimError, short_repr
 
 __all__ = ["CHROMA_FORMATS", "CONTAINERS", "DEFAULT_BITRATE_BPS", "ENCODERS", "ENCODER_THREADS", "MAX_B_FRAMES",
-           "PRESETS", "RECORDING_TUNE", "TUNES", "VideoSettings", "check_encoder", "check_frames", "encoder_and_format",
+           "PRESETS", "TUNES", "VideoSettings", "check_encoder", "check_frames", "encoder_and_format",
            "frame_size_problem", "parse_bitrate"]
 
 CONTAINERS = ("mp4", "mkv")
@@ -37,10 +37,8 @@ DEFAULT_BITRATE_BPS = 17_000_000
 DEFAULT_PRESET = "superfast"
 # x264's and x265's tunings they share; "none" leaves the preset as it is.
 TUNES = ("none", "fastdecode", "zerolatency", "grain", "psnr", "ssim")
-DEFAULT_TUNE = "fastdecode"
-# A phone's recording as rollsim redoes it: its encoder deblocks (and codes
-# CABAC in the Main and High profiles phones use), so x264's own tuning.
-RECORDING_TUNE = "none"
+# The preset's own: CABAC and the deblocking filter, as a phone's encoder codes.
+DEFAULT_TUNE = "none"
 # B-frames between reference frames: x264 and x265 take 0 … 16.
 MAX_B_FRAMES = 16
 # Encoder threads, fixed: x264's frame threads shape its rate control's

@@ -242,3 +242,21 @@ def test_fit_cameras_default_reads_at_most_ten_frames(tmp_path, held, expected):
     args = argparse.Namespace(video_frames=None, start=0, rotate=None)
     assert VIDEO_FIT_FRAMES == 10
     assert len(list(_video_input_frames(path, args, VIDEO_FIT_FRAMES, []))) == expected
+
+
+def test_a_recording_without_rollsims_tags_is_redone_as_a_phone_codes(tmp_path):
+    """Another encoder's file: bitrate from its size, GOP from its key frames, B-frames if the stream
+    has them (x264's default count), rollsim's default tuning; rollsim's tags are not there to read."""
+    from rollsim.video.read import recording_settings
+    from rollsim.video.settings import DEFAULT_TUNE
+
+    base = _grey(1)[0]
+    frames = [np.roll(base, i, axis=0) for i in range(12)]  # a still scene panning: no scene cut
+    for name, b_frames in (("p.mp4", 0), ("b.mp4", 2)):
+        _write(tmp_path / name, frames, VideoSettings(bitrate_bps=400_000, gop_frames=4, b_frames=b_frames,
+                                                      tune="fastdecode"))
+    plain, with_b = recording_settings(tmp_path / "p.mp4"), recording_settings(tmp_path / "b.mp4")
+    assert plain.tune == with_b.tune == DEFAULT_TUNE == "none"
+    assert (plain.b_frames, with_b.b_frames) == (0, 3)
+    assert plain.gop_frames == 4 and plain.bitrate_bps != 400_000
+
