@@ -79,18 +79,18 @@ def render_rate(scene, frames: int, workers: int, video=None, read_back: bool = 
 
 def bench_video(frames: int = FRAMES, encodings: Sequence[tuple[str, dict]] = ENCODINGS, workers: int = 2,
                 scene_name: str = SCENE, overrides: Optional[list] = None) -> dict:
-    """Run the video benchmark; a JSON-ready dict. The first of ``encodings`` is taken for the default."""
+    """Run the video benchmark; a JSON-ready dict."""
     from rollsim.scene import load_scene
     from rollsim.video.settings import VideoSettings
 
     scene = load_scene(scene_name, overrides or [])
     png = render_rate(scene, frames, workers)
     rows: list[dict[str, Any]] = []
-    for index, (name, given) in enumerate(encodings):
+    for name, given in encodings:
         settings = VideoSettings(**given)
         timing = render_rate(scene, frames, workers, settings, read_back=True)
         assert timing.read_ms_per_frame is not None  # a video was written and read back
-        rows.append({"encoding": name, "settings": settings.describe(), "default": index == 0,
+        rows.append({"encoding": name, "settings": settings.describe(), "default": settings == VideoSettings(),
                      "render_frames_per_s": round(timing.whole_frames_per_s, 1),
                      "steady_frames_per_s": round(timing.steady_frames_per_s, 1),
                      "read_ms_per_frame": round(timing.read_ms_per_frame, 2)})

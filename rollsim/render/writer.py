@@ -162,7 +162,7 @@ def video_metadata(scene: Scene, n_frames: int, video: VideoSettings) -> dict[st
     text = frame_text(scene, {"frame": 0, "start_s": 0.0})
     del text["frame"], text["start_s"], text["Software"]
     return {**text, "frames": str(n_frames), "frame_rate_hz": repr(scene.camera.frame_rate_hz),
-            "encoding": f"{video.describe()} gop {video.gop_for(scene.camera.frame_rate_hz)}",
+            "encoding": video.describe(scene.camera.frame_rate_hz),
             "comment": f"rendered by rollsim {__version__}"}
 
 

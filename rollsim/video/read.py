@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Iterator, Optional
@@ -185,11 +184,14 @@ def recording_settings(path: Path):
     it holds B-frames (then x264's default of 3). The encoder's preset is
     not in the file: rollsim's default stands in, deblocked as a phone's
     encoder codes. A video rollsim rendered names its rate control, preset,
-    tuning, B-frames and GOP in its tags: those are taken.
+    tuning, B-frames and GOP in its tags: those are taken. Its key frames do
+    not give its GOP (x264 adds one at each scene cut, which a moving
+    square wave makes of many frames), nor its size its bitrate (the
+    average bitrate control overshoots over a short file).
     """
     import av
 
-    from rollsim.video.settings import VideoSettings
+    from rollsim.video.settings import VideoSettings, described_settings
 
     info = probe_video(path)
     codec = {"h264": "h264", "hevc": "hevc"}.get(info.codec)
@@ -223,32 +225,7 @@ def recording_settings(path: Path):
         return None
     read = {"bitrate_bps": int(min(bitrate, 1e9)), "b_frames": b_frames, "gop_frames": gop}
     return VideoSettings(container="mkv", codec=codec, chroma=chroma,
-                         **(read | _rollsim_encoder(info.metadata.get("encoding", ""))))
-
-
-# rollsim's own "encoding" tag (rollsim.render.writer.video_metadata):
-# "... preset P tune T b-frames N chroma C gop G".
-_ENCODING_TAG = re.compile(r"^\w+ (?:crf (?P<crf>\d+)|(?P<mbps>\d+(?:\.\d*)?(?:e[-+]?\d+)?) Mb/s) "
-                           r"preset (?P<preset>\w+) tune (?P<tune>\w+) b-frames (?P<b_frames>\d+)\b.*\bgop (?P<gop>\d+)\b")
-
-
-def _rollsim_encoder(tag: str) -> dict:
-    """The rate control, preset, tuning, B-frames and GOP a video rollsim wrote names in its tags
-    ({} for another's).
-
-    Its key frames do not give its GOP (x264 adds one at each scene cut,
-    which a moving square wave makes of many frames), nor its size its
-    bitrate (the average bitrate control overshoots over a short file).
-    """
-    from rollsim.video.settings import MAX_B_FRAMES, MAX_CRF, PRESETS, TUNES
-
-    match = _ENCODING_TAG.search(str(tag))
-    if match is None or match["preset"] not in PRESETS or match["tune"] not in TUNES:
-        return {}
-    rate = ({"crf": min(int(match["crf"]), MAX_CRF), "bitrate_bps": None} if match["crf"] is not None else
-            {"bitrate_bps": int(min(max(float(match["mbps"]) * 1e6, 1e4), 1e9))})
-    return {"preset": match["preset"], "tune": match["tune"], "b_frames": min(int(match["b_frames"]), MAX_B_FRAMES),
-            "gop_frames": max(1, int(match["gop"])), **rate}
+                         **(read | described_settings(info.metadata.get("encoding", ""))))
 
 
 def _upright(image: np.ndarray, clockwise_deg: int) -> np.ndarray:

@@ -22,7 +22,7 @@ from typing import Optional
 from rollsim.errors import RollsimError, short_repr
 
 __all__ = ["CHROMA_FORMATS", "CONTAINERS", "DEFAULT_BITRATE_BPS", "ENCODERS", "ENCODER_THREADS", "MAX_B_FRAMES",
-           "PRESETS", "TUNES", "VideoSettings", "check_encoder", "check_frames", "encoder_and_format",
+           "PRESETS", "TUNES", "VideoSettings", "check_encoder", "check_frames", "described_settings", "encoder_and_format",
            "frame_size_problem", "parse_bitrate"]
 
 CONTAINERS = ("mp4", "mkv")
@@ -150,16 +150,35 @@ class VideoSettings:
             options["crf"] = str(self.crf)
         return options
 
-    def describe(self) -> str:
-        """The encoding in words, as the metadata and the benchmarks give it."""
-        return (f"{self.codec} {self.rate_control()} preset {self.preset} tune {self.tune} "
-                f"b-frames {self.b_frames} chroma {self.chroma}")
+    def describe(self, frame_rate_hz: Optional[float] = None) -> str:
+        """The encoding in words, as the benchmarks give it; with the frame rate, also its GOP,
+        as a rendered video's ``encoding`` tag gives it (:func:`described_settings` reads it back)."""
+        words = (f"{self.codec} {self.rate_control()} preset {self.preset} tune {self.tune} "
+                 f"b-frames {self.b_frames} chroma {self.chroma}")
+        return words if frame_rate_hz is None else f"{words} gop {self.gop_for(frame_rate_hz)}"
 
     def rate_control(self) -> str:
         """The rate control in words, as the docs and metadata give it."""
         if self.crf is not None:
             return f"crf {self.crf}"
         return f"{(self.bitrate_bps or DEFAULT_BITRATE_BPS) / 1e6:g} Mb/s"
+
+
+# VideoSettings.describe(frame_rate_hz)'s words: "h264 17 Mb/s preset P tune T b-frames N chroma C gop G".
+_DESCRIPTION = re.compile(r"^\w+ (?:crf (?P<crf>\d+)|(?P<mbps>\d+(?:\.\d*)?(?:e[-+]?\d+)?) Mb/s) "
+                          r"preset (?P<preset>\w+) tune (?P<tune>\w+) b-frames (?P<b_frames>\d+)\b.*\bgop (?P<gop>\d+)\b")
+
+
+def described_settings(text: str) -> dict:
+    """The rate control, preset, tuning, B-frames and GOP that :meth:`VideoSettings.describe`'s
+    words (with a frame rate) name, as :class:`VideoSettings` keywords; {} for other text."""
+    match = _DESCRIPTION.search(str(text))
+    if match is None or match["preset"] not in PRESETS or match["tune"] not in TUNES:
+        return {}
+    rate = ({"crf": min(int(match["crf"]), MAX_CRF), "bitrate_bps": None} if match["crf"] is not None else
+            {"bitrate_bps": int(min(max(float(match["mbps"]) * 1e6, 1e4), 1e9))})
+    return {"preset": match["preset"], "tune": match["tune"], "b_frames": min(int(match["b_frames"]), MAX_B_FRAMES),
+            "gop_frames": max(1, int(match["gop"])), **rate}
 
 
 # 4:4:4 colour is coded as RGB (x264's RGB encoder, x265's planar GBR): an

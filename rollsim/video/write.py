@@ -61,7 +61,6 @@ class VideoWriter:
 
         check_frames(settings, width_px, height_px, colour)
         encoder, fmt = encoder_and_format(settings, colour)
-        self._colour = colour
         self._shape = (height_px, width_px, 3) if colour else (height_px, width_px)
         # Bit-exact muxing: no random segment UID, date or library version, so
         # the same frames give the same file (the project's determinism).

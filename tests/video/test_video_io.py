@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -260,3 +262,17 @@ def test_a_recording_without_rollsims_tags_is_redone_as_a_phone_codes(tmp_path):
     assert (plain.b_frames, with_b.b_frames) == (0, 3)
     assert plain.gop_frames == 4 and plain.bitrate_bps != 400_000
 
+
+
+def test_a_description_reads_back_as_its_settings():
+    """The encoding tag a render writes (VideoSettings.describe with the frame rate) names its settings."""
+    from rollsim.video.settings import described_settings
+
+    for settings in (VideoSettings(), VideoSettings(crf=0, preset="medium", tune="fastdecode", b_frames=2),
+                     VideoSettings(bitrate_bps=500_000, gop_frames=7, chroma="444")):
+        given = VideoSettings(container=settings.container, codec=settings.codec, chroma=settings.chroma,
+                              **described_settings(settings.describe(30.0)))
+        assert given == replace(settings, gop_frames=settings.gop_for(30.0),
+                                bitrate_bps=settings.bitrate_bps or (None if settings.crf is not None else 17_000_000))
+    assert described_settings("h264 17 Mb/s preset nosuch tune none b-frames 0 chroma 420 gop 30") == {}
+    assert described_settings(VideoSettings().describe()) == {}  # without a GOP: not a tag
