@@ -97,6 +97,14 @@ REGION_FRAMES = 12
 # background's; at most a quarter of the profile at each end is left out.
 LEVEL_MARGIN = 0.1
 LEVEL_MARGIN_SIGMAS = 4.0
+# Stripes whose OFF rows lie within CLIPPED_DN of an 8-bit frame's full scale
+# are not read: there a row's mean counts the pixels that clip (the rim of a
+# saturated disk, whose outline crosses the pixel grid every few rows, the
+# same in every frame), not the light's course in time. Measured: a 45-row
+# disk at 7 full scales reads a 3.9-row "period" from its rim's dips of
+# 1–6 DN below 255 (rollsim bench fit-camera, seed 1, camera 26; its stripe
+# period is 117 rows).
+CLIPPED_DN = 8.0
 
 
 class RowTimeError(ValueError):
@@ -125,8 +133,8 @@ def spectral_period_rows(values: np.ndarray, min_period: float = 2.5) -> float |
     return peak_period_rows(detrended, min_period, n / 4.0)
 
 
-def edge_period_rows(profile: RowProfile, guess_rows: float,
-                     min_edges: int = MIN_EDGES) -> tuple[float, float, int] | None:
+def edge_period_rows(profile: RowProfile, guess_rows: float, min_edges: int = MIN_EDGES,
+                     full_scale_dn: float | None = None) -> tuple[float, float, int] | None:
     """Stripe period by regression over the edges of a square-wave profile.
 
     Parameters
@@ -136,6 +144,9 @@ def edge_period_rows(profile: RowProfile, guess_rows: float,
         Period guess, good to better than ~20 %.
     min_edges : int
         Fewest edges that give an estimate.
+    full_scale_dn : float, optional
+        The frame's full scale (255 for 8-bit frames; None: not known):
+        stripes whose OFF rows lie within :data:`CLIPPED_DN` of it are not read.
 
     Returns
     -------
@@ -146,6 +157,9 @@ def edge_period_rows(profile: RowProfile, guess_rows: float,
     """
     window = 2 * int(1.5 * guess_rows) + 1  # every window holds ON and OFF rows
     levels = binarize_profile(profile.values, profile.noise, window, guess_rows / 12.0)
+    off = levels.level == 0
+    if full_scale_dn is not None and off.any() and np.median(profile.values[off]) >= full_scale_dn - CLIPPED_DN:
+        return None
     runs = find_runs(levels.level, levels.q)
     values = runs.values
     if values.size < 3:
@@ -345,6 +359,11 @@ def one_peak_per_period(values: np.ndarray, noise: np.ndarray, period_rows: floa
     return peaks.size <= allowed and valleys.size <= allowed
 
 
+def full_scale_dn(frame: np.ndarray) -> float | None:
+    """An 8-bit frame's full scale, 255 DN; None for other depths (a raw frame's is not known)."""
+    return 255.0 if frame.dtype == np.uint8 else None
+
+
 def frame_period_rows(image, min_edges: int = MIN_EDGES) -> tuple[float, float, int] | None:
     """Square-wave stripe period (rows) in a frame's largest LED region."""
     frame = as_frame_array(image)
@@ -353,7 +372,7 @@ def frame_period_rows(image, min_edges: int = MIN_EDGES) -> tuple[float, float, 
     regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
     if not regions:
         return None
-    return profile_period_rows(row_profile(blocks, regions[0]), min_edges)
+    return profile_period_rows(row_profile(blocks, regions[0]), min_edges, full_scale_dn(frame))
 
 
 def led_rows(values: np.ndarray, noise: np.ndarray) -> slice:
@@ -384,10 +403,12 @@ def led_rows(values: np.ndarray, noise: np.ndarray) -> slice:
     return slice(first, last)
 
 
-def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES) -> tuple[float, float, int] | None:
+def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES,
+                        full_scale_dn: float | None = None) -> tuple[float, float, int] | None:
     """Square-wave stripe period (rows) of a row profile: its spectrum's guess, refined over its edges.
 
-    The profile's ends beyond the LED's levels (:func:`led_rows`) are left out.
+    The profile's ends beyond the LED's levels (:func:`led_rows`) are left out;
+    ``full_scale_dn`` as :func:`edge_period_rows`.
 
     Returns ``(period_rows, standard_error_rows, n_edges)`` as
     :func:`edge_period_rows` (at least ``min_edges`` edges), or None.
@@ -398,10 +419,10 @@ def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES) -> tupl
     if guess is None:
         return None
     # Two passes: the first regression sharpens the spectral guess.
-    first = edge_period_rows(profile, guess, min_edges)
+    first = edge_period_rows(profile, guess, min_edges, full_scale_dn)
     if first is None:
         return None
-    return edge_period_rows(profile, first[0], min_edges)
+    return edge_period_rows(profile, first[0], min_edges, full_scale_dn)
 
 
 def _load(item):
@@ -414,7 +435,7 @@ def _period_in(image, region: StripeRegion | None = None) -> tuple[float, float,
     wave or a frame the decoder cannot use."""
     try:
         if region is not None:
-            return profile_period_rows(region_profile(image, region), FEW_EDGES)
+            return profile_period_rows(region_profile(image, region), FEW_EDGES, full_scale_dn(as_frame_array(image)))
         return frame_period_rows(image, FEW_EDGES)
     except FrameError:
         return None

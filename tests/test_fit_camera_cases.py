@@ -205,3 +205,26 @@ def test_the_bench_reads_stripe_contrast_off_a_noise_free_frame(on_full_scales, 
     least, most = box_level_range(exposure_chips)
     expected = 255.0 * (min(on_full_scales * most, 1.0) - min(on_full_scales * least, 1.0))
     assert stripe_contrast_8bit(cam) == pytest.approx(expected, rel=0.1, abs=2.0)
+
+
+def test_a_saturated_disk_s_rim_is_not_read_as_stripes(monkeypatch):
+    """A 45-row disk at 7 full scales, its stripe period 117 rows: no stripes to read. Its
+    rim's row means dip 1–6 DN below 255 every few rows, the same in every frame
+    (the outline crossing the pixel grid); the estimator once read them as a
+    3.9-row period, 30 times too short (decoder.rowtime.CLIPPED_DN)."""
+    import decoder.rowtime
+    from decoder import RowTimeError, estimate_row_time
+    from rollsim.bench.fit_camera import HiddenCamera, hidden_scene
+
+    cam = HiddenCamera(index=0, width_px=400, height_px=300, row_time_us=7.94, exposure_chips=1.388,
+                       clock_hz=2148.02, on_full_scales=7.05, led_diameter_px=45.357, led_x_px=221.4576,
+                       led_y_px=113.9476, background_full_scales=0.0706, binning_rows=1, jpeg_quality=None,
+                       colour=False, iso=303.27, read_noise_e=3.77, srgb=False, smoothing_rows=1.2334, seed=795518357)
+    images, _ = render_frames(hidden_scene(cam), 3)
+    frames = [np.clip(np.rint(np.asarray(im)), 0, 255).astype(np.uint8) for im in images]
+    with pytest.raises(RowTimeError):
+        estimate_row_time(frames, cam.clock_hz)
+    # The rim is what was read: without the clip's check a period comes out, far from the truth.
+    monkeypatch.setattr(decoder.rowtime, "CLIPPED_DN", -np.inf)
+    row_time_s, _ = estimate_row_time(frames, cam.clock_hz)
+    assert row_time_s > 10 * cam.row_time_us * 1e-6

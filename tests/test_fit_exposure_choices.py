@@ -2,7 +2,8 @@
 
 Whole stripe periods of exposure more, and the reflection E <-> P - E, make
 the same stripes with other ON and OFF levels; a fit picks one by the OFF
-level and names the others (``alternatives`` in fit.json), so that a user
+level (or by rendering the likeliest, where one renders plainly nearer the
+frames) and names the others (``alternatives`` in fit.json), so that a user
 who knows the camera's setting can tell which is right.
 """
 
@@ -83,3 +84,20 @@ def test_the_report_names_the_alternatives():
     assert "497, 777 us" in text and "iso" not in text
     assert Estimate(140.0, 3.0, "us", "box", alternatives=(497.0,)).to_json()["alternatives"] == [497.0]
     assert "alternatives" not in estimates["iso"].to_json()
+
+
+@pytest.mark.parametrize("mismatches, kept", [
+    ([0.5], 0),                  # one choice: nothing to choose
+    ([7.8, 0.012, 0.016], 1),    # the OFF level's first renders plainly wrong: the nearest is kept
+    ([0.03, 0.013, 0.0023], 0),  # 14 times nearer, but by less than two renders of one scene differ
+    ([0.5, 0.2, 0.3], 0),        # nearer by 0.3, but not by a factor of four
+    ([0.2, 0.5, 0.9], 0),        # the first is the nearest
+])
+def test_a_rendered_choice_replaces_the_first_only_by_a_clear_margin(mismatches, kept):
+    """rollsim.fit.refine.rendered_choice: the choices' renders decide only where one fails plainly."""
+    from rollsim.fit.refine import RENDERED_GAIN, RENDERED_MARGIN, rendered_choice
+
+    assert rendered_choice(mismatches) == kept
+    if kept:
+        assert mismatches[0] > RENDERED_MARGIN * mismatches[kept]
+        assert mismatches[0] - mismatches[kept] > RENDERED_GAIN

@@ -20,9 +20,9 @@ import numpy as np
 
 from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
-from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, Measured, NoiseFit, Parameters, \
-    anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, measure, \
-    noise_anchors
+from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, ExposureChoice, Measured, NoiseFit, \
+    Parameters, anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, \
+    measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
@@ -31,6 +31,15 @@ from rollsim.scene.model import Scene
 # renders and measures once more; the first that does not bring the noise
 # nearer ends them).
 NOISE_ROUNDS = 2
+# Exposures the stripes allow (the likeliest by their OFF level first) that
+# are rendered to choose among, and how much nearer the frames another's
+# render must lie to replace the first: a factor in :func:`mismatch` and a
+# difference. One scene rendered with five seeds gives mismatches 0.003–0.04
+# apart (paper-geometric cameras of `rollsim bench fit-camera`), and
+# exposures the stripes cannot tell apart differ by as little.
+EXPOSURE_RENDERS = 3
+RENDERED_MARGIN = 4.0
+RENDERED_GAIN = 0.1
 
 
 @dataclass
@@ -146,23 +155,30 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning)
     say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
     video = {"recording": recording, "frame_rate_hz": frame_rate_hz}
-    params, noise = direct(target, base)
-    notes: list[str] = []
-    scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel, **video)
-    best = None
-    for k in range(iterations + 1):
-        rendered = measure_rendered(scene, len(frames), channel, target)
-        score = mismatch(target, rendered, params.gamma)
-        if best is None or score < best[0]:
-            best = (score, params, scene, notes, rendered)
-        if k == iterations:
-            break
+    direct_params, noise = direct(target, base)
+
+    def rendered_trial(p: Parameters) -> tuple:
+        """(mismatch, parameters, scene, notes, the rendered frames' statistics) of ``p``."""
+        trial_notes: list[str] = []
+        trial_scene = fitted_scene(base, shape, clock_hz, target, p, trial_notes, plane=channel, **video)
+        trial_rendered = measure_rendered(trial_scene, len(frames), channel, target)
+        return mismatch(target, trial_rendered, p.gamma), p, trial_scene, trial_notes, trial_rendered
+
+    choices = exposure_choices(target, base)
+    trials = [rendered_trial(with_exposure(direct_params, c)) for c in choices[:EXPOSURE_RENDERS]]
+    kept = rendered_choice([t[0] for t in trials])
+    choices = [choices[kept]] + choices[:kept] + choices[kept + 1:]
+    say(f"exposure {choices[0].exposure_rows:.2f} rows" + (f", of the {len(trials)} the stripes allow rendered"
+                                                            if len(trials) > 1 else ", the one the stripes allow"))
+    best = trials[kept]
+    score, params, scene, notes, rendered = best
+    for k in range(iterations):
         params = corrected(params, noise, target, rendered)
-        notes = []
-        scene = fitted_scene(base, shape, clock_hz, target, params, notes, plane=channel, **video)
+        score, params, scene, notes, rendered = rendered_trial(params)
         say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
-            f"(mismatch of the last {score:.3g})")
-    assert best is not None  # the loop runs at least once
+            f"(mismatch {score:.3g})")
+        if score < best[0]:
+            best = score, params, scene, notes, rendered
     _, params, scene, notes, rendered = best
     # The rounds move every parameter at once, and the round kept is the best
     # in all; its noise is then matched alone: the gain and read noise move,
@@ -170,14 +186,34 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     for _ in range(NOISE_ROUNDS):
         trial = dataclasses.replace(params, **{name: getattr(corrected(params, noise, target, rendered), name)
                                                for name in ("k_lin", "read_lin")})
-        trial_notes: list[str] = []
-        trial_scene = fitted_scene(base, shape, clock_hz, target, trial, trial_notes, plane=channel, **video)
-        trial_rendered = measure_rendered(trial_scene, len(frames), channel, target)
+        _, trial, trial_scene, trial_notes, trial_rendered = rendered_trial(trial)
         if noise_mismatch(target, trial_rendered, trial.gamma) >= noise_mismatch(target, rendered, params.gamma):
             break
         params, scene, notes, rendered = trial, trial_scene, trial_notes, trial_rendered
         say(f"noise matched: ISO {scene.camera.iso:.0f}")
-    return CameraFit(estimates(target, params, noise, scene, base), scene, target, notes, channel)
+    return CameraFit(estimates(target, params, noise, scene, base, choices), scene, target, notes, channel)
+
+
+def with_exposure(p: Parameters, choice: ExposureChoice) -> Parameters:
+    """``p`` with another exposure the stripes allow and the linear levels it implies."""
+    return dataclasses.replace(p, exposure_rows=choice.exposure_rows, on_lin=choice.on, off_lin=max(0.0, choice.off))
+
+
+def rendered_choice(mismatches: Sequence[float]) -> int:
+    """Which of the rendered exposure choices to keep, given each render's :func:`mismatch`.
+
+    The first (the likeliest by its OFF level) unless another's render lies
+    nearer the frames by a factor of :data:`RENDERED_MARGIN` and by more
+    than :data:`RENDERED_GAIN`; then the nearest. The choices make the same
+    stripes only where nothing clips and the pipeline is linear: rendered
+    through the camera's clip, colour filter and JPEG, a wrong one can fail
+    plainly. Where none does, their mismatches differ by the renders' noise,
+    and the OFF level decides.
+    """
+    nearest = int(np.argmin(mismatches))
+    first = mismatches[0]
+    clear = first > RENDERED_MARGIN * mismatches[nearest] and first - mismatches[nearest] > RENDERED_GAIN
+    return nearest if clear else 0
 
 
 def exposure_precision(m: Measured) -> float:
@@ -284,8 +320,10 @@ def noise_mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
                for a in noise_anchors(target, gamma))
 
 
-def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene) -> dict:
-    """Every parameter of the fitted scene with its uncertainty and source."""
+def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene,
+              choices: Sequence[ExposureChoice]) -> dict:
+    """Every parameter of the fitted scene with its uncertainty and source; ``choices``
+    are the exposures the stripes allow, the one kept first."""
     cam = scene.camera
     t_row_us = m.row_time_s * 1e6
     unc = m.stripes.uncertainties
@@ -302,9 +340,10 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         "exposure_us": Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
                                 "width of the box that rounds the stripes' edges (ramps between clipped plateaus "
                                 "and the OFF runs' widths when saturated); whole periods and the reflection E <-> "
-                                "P - E chosen by the OFF level; refined by rendering",
+                                "P - E chosen by the OFF level, or by rendering where that tells them apart; "
+                                "refined by rendering",
                                 alternatives=tuple(e * t_row_us for e in exposure_alternatives_rows(
-                                    cam.exposure_us / t_row_us, m.stripes_period_rows, exposure_choices(m, base)))),
+                                    cam.exposure_us / t_row_us, m.stripes_period_rows, choices))),
         "isp_smoothing_rows": Estimate(p.smoothing_rows, unc.get("smoothing_rows"), "rows",
                                        "sigma of the ISP's vertical Gaussian, from the edges' shape"),
         "tone_gamma": Estimate(p.gamma, unc.get("gamma"), "", "gamma of the tone curve v^(1/gamma), from the edges"),

@@ -238,3 +238,20 @@ def test_a_profile_within_its_levels_keeps_every_row():
     values = np.where(np.mod(np.arange(200), 20) < 10, 200.0, 10.0)
     values[:7] = 10.0
     assert led_rows(values, np.full(200, 1.0)) == slice(0, 200)
+
+
+def test_a_saturated_square_wave_reads_while_stripes_within_the_clip_do_not():
+    """ON rows clipped at 255 and OFF rows well below read; the same stripes moved
+    within CLIPPED_DN of full scale (the rows count clipped pixels, not light) do not."""
+    from decoder.rowtime import CLIPPED_DN
+
+    rng = np.random.default_rng(0)
+    rows = np.arange(200)
+    on = (rows % 20) < 12
+    noise = np.full(rows.size, 0.3)
+    clipped = RowProfile(0, np.where(on, 255.0, 140.0) + rng.normal(0, 0.3, rows.size), noise)
+    found = profile_period_rows(clipped, full_scale_dn=255.0)
+    assert found is not None and found[0] == pytest.approx(20.0, rel=0.005)
+    near_clip = RowProfile(0, np.where(on, 255.0, 255.0 - 0.5 * CLIPPED_DN) + rng.normal(0, 0.3, rows.size), noise)
+    assert profile_period_rows(near_clip) is not None  # the depth not known: read
+    assert profile_period_rows(near_clip, full_scale_dn=255.0) is None
