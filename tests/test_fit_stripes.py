@@ -37,3 +37,39 @@ def test_the_fit_recovers_the_exposure_and_the_smoothing_of_exact_profiles(expos
     assert min(abs(fit.exposure_rows - exposure), abs(fit.exposure_rows - (PERIOD - exposure))) < 0.02 * exposure
     assert fit.smoothing_rows == pytest.approx(sigma, abs=0.05)
     assert fit.rms_residual < 0.05
+
+
+def _fit_with(exposure_rows, on, off, gamma=1.0):
+    from rollsim.fit.stripes import StripeFit
+
+    return StripeFit(exposure_rows, 0.0, gamma, on, off, (0.0,), (on,), (off,), (0.0,), 0.0, {})
+
+
+@pytest.mark.parametrize("exposure_rows, on, off, gamma, expected", [
+    (5.0, 0.8, 0.1, 1.0, 255 * 0.7),                  # a box within a chip: the full swing
+    (15.0, 0.8, 0.1, 1.0, 255 * 0.7 * (2 / 3 - 1 / 3)),  # 1.5 chips: w from 1/3 to 2/3
+    (20.0, 0.8, 0.1, 1.0, 0.0),                       # a whole period: no stripes
+    (15.0, 6.0, 0.9, 1.0, 0.0),                       # OFF rows clipped too: none shown
+    (5.0, 3.0, 0.25, 2.0, 255 * (1.0 - 0.5)),          # ON clipped, OFF through the tone curve
+])
+def test_the_swing_is_what_the_frames_show_of_the_levels(exposure_rows, on, off, gamma, expected):
+    """StripeFit.swing_dn against closed forms (period 20 rows: a chip is 10)."""
+    assert _fit_with(exposure_rows, on, off, gamma).swing_dn(20.0) == pytest.approx(expected, abs=1e-9)
+
+
+def test_a_render_without_stripes_lies_far_from_frames_with_them():
+    """rollsim.fit.refine.mismatch: a render whose OFF rows clip too is never the nearest, whatever its levels."""
+    from types import SimpleNamespace
+
+    from rollsim.fit.refine import mismatch
+
+    def measured(fit):
+        return SimpleNamespace(stripes=fit, stripes_period_rows=20.0, noise_levels=np.zeros(0),
+                               noise_variances=np.zeros(0), background=None, background_noise=None)
+
+    frames = measured(_fit_with(14.7, 1.32, 0.49, 2.2))
+    shown = measured(_fit_with(14.2, 1.24, 0.58, 2.0))
+    clipped = measured(_fit_with(18.4, 1.69, 0.52, 2.4))  # its box never falls below full scale
+    assert clipped.stripes.swing_dn(20.0) == 0.0
+    assert mismatch(frames, clipped, 2.2) == np.inf
+    assert np.isfinite(mismatch(frames, shown, 2.2))

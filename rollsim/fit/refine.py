@@ -40,6 +40,9 @@ NOISE_ROUNDS = 2
 EXPOSURE_RENDERS = 3
 RENDERED_MARGIN = 4.0
 RENDERED_GAIN = 0.1
+# A stripe swing under this (8-bit levels: half a level) shows no stripes in
+# 8-bit frames (:func:`mismatch`).
+MIN_SWING_DN = 0.5
 
 
 @dataclass
@@ -302,8 +305,16 @@ def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
     squared differences of the stripes' shape (relative to the exposure; γ as is),
     squared log ratios of the levels and of the noise at the anchor levels.
     The refinement keeps the round with the least (it never ends worse than
-    it began, as measured)."""
+    it began, as measured).
+
+    A render that shows no stripes where the frames do (a swing,
+    :meth:`rollsim.fit.stripes.StripeFit.swing_dn`, under
+    :data:`MIN_SWING_DN`: its OFF rows clip too) is infinitely far, however
+    near the levels beyond full scale its fit reports.
+    """
     t, r = target.stripes, rendered.stripes
+    if r.swing_dn(rendered.stripes_period_rows) < MIN_SWING_DN <= t.swing_dn(target.stripes_period_rows):
+        return math.inf
     scale = max(1.0, t.exposure_rows)  # rows
     total = ((t.exposure_rows - r.exposure_rows) / scale) ** 2 + ((t.smoothing_rows - r.smoothing_rows) / scale) ** 2
     total += (t.gamma - r.gamma) ** 2 + _log_ratio(t.on, r.on) ** 2 + _log_ratio(t.off, r.off) ** 2

@@ -139,6 +139,17 @@ class StripeFit:
     rms_residual: float
     uncertainties: dict
 
+    def swing_dn(self, period_rows: float) -> float:
+        """The stripes' swing as the frames show it, 8-bit levels: the box's least and
+        greatest level (:func:`box_level_range`) between the OFF and ON levels,
+        clipped at full scale, through the tone curve (0 where both clip).
+
+        Levels beyond full scale leave it unchanged: it is what they cannot say.
+        """
+        low, high = box_level_range(2.0 * self.exposure_rows / period_rows)
+        shown = [min(max(self.off + (self.on - self.off) * w, 0.0), 1.0) ** (1.0 / self.gamma) for w in (low, high)]
+        return 255.0 * abs(shown[1] - shown[0])
+
 
 # A camera's tone curve is concave (γ ≥ 1: sRGB's is about 2.2); a little
 # below 1 is left for the estimator's noise.
