@@ -21,27 +21,85 @@ def bright_rows_noise(levels: np.ndarray, variances: np.ndarray) -> float:
     return float(np.sqrt(np.mean(variances[top])))
 
 
-def aligned_correlation(a: np.ndarray, b: np.ndarray, period_rows: float, step: float = 0.1) -> float:
+def aligned_shift(a: np.ndarray, b: np.ndarray, period_rows: float, step: float = 0.1) -> tuple[float, float]:
     """Pearson correlation of two row profiles, ``b`` shifted by the best fraction of a
-    stripe period in [−P/2, P/2] (a free-running camera's stripes sit at any phase).
+    stripe period in [−P/2, P/2] (a free-running camera's stripes sit at any phase), and that shift.
 
+    ``b`` is read at rows r + shift (linear interpolation) beside ``a`` at rows r.
     The ends, P/2 rows each, are left out so that every shift compares the same rows.
+
+    Returns
+    -------
+    (correlation, shift_rows) : (float, float)
     """
     margin = int(math.ceil(period_rows / 2)) + 1
     if a.size <= 2 * margin + 2:
         raise ValueError("the row profiles are shorter than a stripe period")
     rows = np.arange(a.size, dtype=np.float64)
     inner = rows[margin:-margin]
-    best = -1.0
+    best, best_shift = -1.0, 0.0
     fixed = a[margin:-margin] - a[margin:-margin].mean()
-    for shift in np.arange(-period_rows / 2, period_rows / 2 + step, step):
+    # Searched from the unshifted profile outwards, so that a tie keeps the
+    # smallest shift (an interpolated profile is blurred).
+    shifts = np.arange(0.0, period_rows / 2 + step, step)
+    for shift in np.concatenate([[0.0], np.ravel(np.column_stack([shifts[1:], -shifts[1:]]))]):
         moved = np.interp(inner + shift, rows, b)
         moved = moved - moved.mean()
         norm = float(np.sqrt(np.sum(fixed**2) * np.sum(moved**2)))
         # A flat profile correlates with nothing (0, not NaN).
         r = float(np.sum(fixed * moved)) / norm if norm > 0 else 0.0
-        best = max(best, r)
-    return best
+        if r > best:
+            best, best_shift = r, float(shift)
+    return best, best_shift
+
+
+def aligned_correlation(a: np.ndarray, b: np.ndarray, period_rows: float, step: float = 0.1) -> float:
+    """The correlation of :func:`aligned_shift`."""
+    return aligned_shift(a, b, period_rows, step)[0]
+
+
+# The frames' stripe phases, measured against a render, fit one frame period
+# and one start to within this fraction of a stripe period (a shift read off
+# a noisy profile of a few periods is good to a row or so; frames taken at
+# random times leave residuals anywhere in ±P/2). Frames that do not (stills
+# of a free-running camera) are compared at their interpolated shifts.
+MAX_TIMING_RESIDUAL_PERIODS = 0.1
+
+
+def wrapped(x: np.ndarray) -> np.ndarray:
+    """Fractions of a period wrapped into [−0.5, 0.5)."""
+    return np.asarray(x, dtype=np.float64) - np.floor(np.asarray(x, dtype=np.float64) + 0.5)
+
+
+def matched_timing(scene, shifts_rows: Sequence[float]):
+    """``scene`` timed so that its frames' stripes fall where the frames' do, or None.
+
+    Frame i of the render shows the frames' stripes ``shifts_rows[i]`` rows
+    later (:func:`aligned_shift`): its waveform is read s_i·t_row early. A
+    square wave repeats every W = 2 / f, so frame i of a render whose frame
+    period is T + δ and whose waveform starts c earlier (``link.start_offset_us``
+    less c) reads it as the frames do when s_i·t_row ≡ c + i·δ (mod W) for
+    every i. δ and c are the circular means of the frames' steps and starts;
+    δ is taken in [0, W), so that the frame period only grows (the rows and
+    the exposure still fit in it).
+
+    Returns
+    -------
+    Scene or None
+        None when the shifts do not fit one period and start within
+        :data:`MAX_TIMING_RESIDUAL_PERIODS` (frames not taken at one rate).
+    """
+    row_time_s, wave_s = scene.camera.row_time_us * 1e-6, 2.0 / scene.link.clock_hz
+    d = np.asarray(shifts_rows, dtype=np.float64) * row_time_s / wave_s  # periods
+    i = np.arange(d.size)
+    step = float(np.angle(np.mean(np.exp(2j * np.pi * wrapped(np.diff(d))))) / (2 * np.pi)) if d.size > 1 else 0.0
+    start = float(np.angle(np.mean(np.exp(2j * np.pi * (d - i * step)))) / (2 * np.pi))
+    if d.size == 0 or float(np.max(np.abs(wrapped(d - start - i * step)))) > MAX_TIMING_RESIDUAL_PERIODS:
+        return None
+    frame_period_s = 1.0 / scene.camera.frame_rate_hz + (step % 1.0) * wave_s
+    camera = scene.camera.model_copy(update={"frame_rate_hz": 1.0 / frame_period_s})
+    link = scene.link.model_copy(update={"start_offset_us": scene.link.start_offset_us - start * wave_s * 1e6})
+    return scene.model_copy(update={"camera": camera, "link": link})
 
 
 @dataclass(frozen=True)
@@ -96,12 +154,25 @@ def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
     frames = fit.grey(frames)
     from rollsim.fit.refine import one_gop
 
-    images, _ = render_frames(one_gop(fit.scene, len(frames)), len(frames))
-    rendered = fit.grey(images)
     rows, cols = fit.band
     real = [f[rows, cols].mean(axis=1) for f in frames]
-    sim = [f[rows, cols].mean(axis=1) for f in rendered]
-    correlations = tuple(aligned_correlation(a, b, fit.period_rows) for a, b in zip(real, sim))
+
+    def rendered_profiles(scene):
+        images, _ = render_frames(scene, len(frames))
+        grey = fit.grey(images)
+        return grey, [f[rows, cols].mean(axis=1) for f in grey]
+
+    scene = one_gop(fit.scene, len(frames))
+    rendered, sim = rendered_profiles(scene)
+    aligned = [aligned_shift(a, b, fit.period_rows) for a, b in zip(real, sim)]
+    # Rendered again at the frames' own stripe phases where one frame rate
+    # gives them: a profile shifted by a fraction of a row is interpolated,
+    # which blurs stripes a few rows wide.
+    timed = matched_timing(scene, [shift for _, shift in aligned])
+    if timed is not None:
+        rendered, sim = rendered_profiles(timed)
+        aligned = [aligned_shift(a, b, fit.period_rows) for a, b in zip(real, sim)]
+    correlations = tuple(r for r, _ in aligned)
     ours, theirs = output_noise(frames, fit), output_noise(rendered, fit)
     crop = led_crop(fit, frames[0].shape)
     pair = (np.clip(frames[0][crop], 0, 255).astype(np.uint8), np.clip(rendered[0][crop], 0, 255).astype(np.uint8))
