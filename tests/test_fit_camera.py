@@ -9,6 +9,7 @@ import yaml
 
 from rollsim.cli import main
 from rollsim.fit.check import aligned_correlation
+from rollsim.sensor.tone import srgb_encode
 from rollsim.fit.measure import find_led_disk, temporal_noise
 from rollsim.fit.noise import noise_gain, photon_transfer
 from rollsim.fit.stripes import square_wave_box, stripe_profile
@@ -47,8 +48,8 @@ def test_the_box_average_equals_the_sampled_integral():
 def test_stripe_profile_applies_the_tone_curve_to_the_linear_level():
     rows = np.arange(100)
     linear = stripe_profile(rows, 10.0, 0.0, 2.0, 0.0, 1.0, 0.8, 0.1)
-    curved = stripe_profile(rows, 10.0, 0.0, 2.0, 0.0, 2.2, 0.8, 0.1)
-    np.testing.assert_allclose(curved, 255 * (linear / 255) ** (1 / 2.2), rtol=1e-12)
+    curved = stripe_profile(rows, 10.0, 0.0, 2.0, 0.0, 2.4, 0.8, 0.1)  # γ 2.4: sRGB
+    np.testing.assert_allclose(curved, 255 * srgb_encode(linear / 255), atol=0.01)
 
 
 # ------------------------------------------------------------------- measures

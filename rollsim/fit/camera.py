@@ -37,7 +37,7 @@ from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, fi
     temporal_noise
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
     photon_transfer, \
-    tone_slope, unclipped
+    tone_from_noise, tone_slope, unclipped
 from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, fit_stripes, levels_for_whole_periods, \
     reflected_levels
 from rollsim.scene.model import Scene
@@ -187,8 +187,14 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     if binning is None:
         binning = detect_binning(frames)
     profiles = [f[rows, cols].mean(axis=1) for f in frames]
-    stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning)
     levels, variances = level_noise_pairs(frames, rows, cols)
+    keep = unclipped(levels)
+    # The stripes' shape tells the tone curve poorly (it trades against the
+    # exposure and the smoothing); the noise tells linear from sRGB where it
+    # can. Rendered frames keep the start's.
+    gamma = tone_from_noise(levels[keep], variances[keep]) if start is None else None
+    stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning,
+                          gamma=gamma)
     background = bg_noise = row_noise = column = None
     if region.block is not None:
         block = region.block
@@ -197,7 +203,6 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
         if bool(unclipped(background)):
             row_noise = bg_noise.row_std
             column = column_pattern_std(mean_frame, *block, len(frames), bg_noise.pixel_std)
-    keep = unclipped(levels)
     band_max = brightest[rows, cols].mean(axis=1)
     on_rows = np.zeros(shape[0], dtype=bool)
     on_rows[rows] = band_max >= np.percentile(band_max, 60)

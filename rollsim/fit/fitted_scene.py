@@ -14,6 +14,7 @@ import math
 from rollsim.fit.camera import NOT_IDENTIFIED, Estimate, Measured, Parameters, gain_per_full_scale
 from rollsim.fit.channel import COLOUR_PLANES
 from rollsim.fit.noise import linear_level
+from rollsim.fit.tone import scene_tone_curve
 from rollsim.scene.model import Scene
 
 # Below these the fit leaves the effect out (a smaller figure is the estimator's noise).
@@ -92,8 +93,9 @@ def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, 
         if getattr(p, "row_lin" if name == "row_noise" else "col_lin") is None and name in base_effects:
             effects[name] = base_effects[name]
     effects.update(ambient={}, shot_noise={"method": "poisson"}, read_noise={"method": "table"})
-    if gamma != 1.0:
-        effects["tone_curve"] = {"curve": "gamma", "gamma": round(gamma, 4)}
+    tone = scene_tone_curve(gamma)
+    if tone is not None:
+        effects["tone_curve"] = tone
     if smoothing > 0:
         effects["isp_smoothing"] = {"sigma_rows_px": round(smoothing, 4)}
     read_e = p.read_lin / p.k_lin

@@ -357,7 +357,9 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
                                     cam.exposure_us / t_row_us, m.stripes_period_rows, choices))),
         "isp_smoothing_rows": Estimate(p.smoothing_rows, unc.get("smoothing_rows"), "rows",
                                        "sigma of the ISP's vertical Gaussian, from the edges' shape"),
-        "tone_gamma": Estimate(p.gamma, unc.get("gamma"), "", "gamma of the tone curve v^(1/gamma), from the edges"),
+        "tone_gamma": Estimate(p.gamma, unc.get("gamma"), "", "exponent of the tone curve (1 linear, 2.4 sRGB, "
+                               "rollsim.fit.tone), " + ("told by the noise against the level (photon transfer)"
+                                                        if m.stripes.gamma_given else "from the edges")),
         "gain_dn_per_e": Estimate(cam.gain_dn_per_e_at_iso, None, "DN/e", "slope of the photon-transfer line "
                                   "(or the noise at one level), refined by rendering", noise.gain_source,
                                   noise.reason if noise.gain_source != FRAMES else None),

@@ -11,11 +11,12 @@ as a fraction of the ADC range; the ON and OFF levels vary slowly along the
 LED (its radial profile, vignetting, glare from the ON rows around an OFF
 one): each is linear between knots a few stripe periods apart, shared by
 all frames. ON may exceed full scale (a saturated LED): the model clips as
-the ADC does. The camera maps the level through the tone curve (a gamma,
-v^(1/γ)) to 8 bits, and the ISP's vertical filter smooths the result with a
-Gaussian of σ rows. :func:`fit_stripes` fits E, σ, γ, the knots' levels and
-each frame's phase φ to the row profiles of several frames by least squares
-(scipy).
+the ADC does. The camera maps the level through the tone curve (of exponent
+γ: linear at 1, sRGB at 2.4, :mod:`rollsim.fit.tone`) to 8 bits, and the
+ISP's vertical filter smooths the result with a Gaussian of σ rows.
+:func:`fit_stripes` fits E, σ, γ (unless the noise told it), the knots'
+levels and each frame's phase φ to the row profiles of several frames by
+least squares (scipy).
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
+
+from rollsim.fit.tone import SRGB_GAMMA, decode, encode
 
 
 __all__ = ["StripeFit", "fit_stripes", "square_wave_box", "stripe_profile"]
@@ -110,7 +113,7 @@ class StripeFit:
     smoothing_rows : float
         σ of the ISP's vertical Gaussian, rows.
     gamma : float
-        γ of the tone curve v^(1/γ) (1: linear output).
+        γ of the tone curve (:mod:`rollsim.fit.tone`; 1: linear output, 2.4: sRGB).
     on, off : float
         Linear ON and OFF levels (medians of the knots'), fractions of the
         ADC range.
@@ -125,6 +128,8 @@ class StripeFit:
     uncertainties : dict
         One-sigma uncertainty of ``exposure_rows``, ``smoothing_rows`` and
         ``gamma`` from the fit's Jacobian.
+    gamma_given : bool
+        γ was given (told by the frames' noise), not fitted.
     """
 
     exposure_rows: float
@@ -138,6 +143,7 @@ class StripeFit:
     phases_rows: tuple
     rms_residual: float
     uncertainties: dict
+    gamma_given: bool = False
 
     def swing_dn(self, period_rows: float) -> float:
         """The stripes' swing as the frames show it, 8-bit levels: the box's least and
@@ -147,11 +153,11 @@ class StripeFit:
         Levels beyond full scale leave it unchanged: it is what they cannot say.
         """
         low, high = box_level_range(2.0 * self.exposure_rows / period_rows)
-        shown = [min(max(self.off + (self.on - self.off) * w, 0.0), 1.0) ** (1.0 / self.gamma) for w in (low, high)]
-        return 255.0 * abs(shown[1] - shown[0])
+        shown = encode([self.off + (self.on - self.off) * w for w in (low, high)], self.gamma)
+        return 255.0 * abs(float(shown[1]) - float(shown[0]))
 
 
-# A camera's tone curve is concave (γ ≥ 1: sRGB's is about 2.2); a little
+# A camera's tone curve is concave (γ ≥ 1: sRGB is 2.4 in this family); a little
 # below 1 is left for the estimator's noise.
 MIN_GAMMA, MAX_GAMMA = 0.8, 5.0
 # The envelope's knots are at least this many stripe periods apart, and at most MAX_KNOTS in all.
@@ -185,7 +191,7 @@ def stripe_profile(rows: np.ndarray, period_rows: float, phase_rows: float, expo
     k, offset = binning
     exposed = rows - np.mod(rows - offset, k) if k > 1 else rows
     level = off + (on - off) * square_wave_box(exposed, period_rows, phase_rows, exposure_rows)
-    out = 255.0 * np.power(np.clip(level, 0.0, 1.0), 1.0 / gamma)
+    out = 255.0 * encode(level, gamma)
     return _smoothed(out, smoothing_rows)
 
 
@@ -213,6 +219,7 @@ class _Layout:
     fit_gamma: bool
     n_knots: int
     n_frames: int
+    given_gamma: float = 1.0  # γ where it is not fitted
 
     @property
     def size(self) -> int:
@@ -222,7 +229,7 @@ class _Layout:
         i = 1
         s = x[i] if self.fit_smoothing else 0.0
         i += self.fit_smoothing
-        g = x[i] if self.fit_gamma else 1.0
+        g = x[i] if self.fit_gamma else self.given_gamma
         i += self.fit_gamma
         nk = self.n_knots
         return x[0], s, g, x[i:i + nk], x[i + nk:i + 2 * nk], x[i + 2 * nk:]
@@ -283,13 +290,15 @@ def _solve(layout: _Layout, starts: list, residuals, period_rows: float, sparsit
 
 
 def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float,
-                start: StripeFit | None = None, binning: tuple[int, int] = (1, 0)) -> StripeFit:
+                start: StripeFit | None = None, binning: tuple[int, int] = (1, 0),
+                gamma: float | None = None) -> StripeFit:
     """Fit the stripe model to the row profiles of several frames.
 
     The smoothing σ and the tone curve's γ are kept only where the frames
     ask for them: the model without one (σ = 0, γ = 1) is chosen when its
     Bayesian information criterion is lower, so a camera without an ISP is
-    not given one to trade against its exposure.
+    not given one to trade against its exposure. A ``gamma`` given (told by
+    the frames' noise) is not fitted.
 
     Parameters
     ----------
@@ -305,6 +314,9 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
         instead of a grid, and its choice of σ and γ).
     binning : (int, int)
         Binned readout (k, offset), as :func:`stripe_profile`.
+    gamma : float, optional
+        The tone curve's γ, given; None: fitted (or 1). With ``start``, the
+        start's given γ is kept.
 
     Returns
     -------
@@ -328,8 +340,13 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
                                    for ph in phases]) - target
         return residuals
 
+    if start is not None and start.gamma_given:
+        gamma = start.gamma
     if start is not None:
-        layouts = [_Layout(start.smoothing_rows > 0, start.gamma != 1.0, nk, n)]
+        layouts = [_Layout(start.smoothing_rows > 0, gamma is None and start.gamma != 1.0, nk, n,
+                           1.0 if gamma is None else gamma)]
+    elif gamma is not None:
+        layouts = [_Layout(sm, False, nk, n, gamma) for sm in (True, False)]
     else:
         layouts = [_Layout(sm, ga, nk, n) for sm in (True, False) for ga in (True, False)]
     fits = []
@@ -340,8 +357,8 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
         else:
             # A grid: the box and the Gaussian trade off, and the phase
             # guess from the fundamental is off by half the box.
-            gammas = (1.0, 2.2) if layout.fit_gamma else (1.0,)
-            starts = [layout.pack(e0 * period_rows, 0.5, g0, [hi**g0] * nk, [lo**g0] * nk,
+            gammas = (1.0, SRGB_GAMMA) if layout.fit_gamma else (layout.given_gamma,)
+            starts = [layout.pack(e0 * period_rows, 0.5, g0, [float(decode(hi, g0))] * nk, [float(decode(lo, g0))] * nk,
                                   [ph + e0 * period_rows / 2 for ph in phases0])
                       for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in gammas]
         sparsity = layout.sparsity(rows, knots, 4.0 * period_rows)  # σ ≤ P, the kernel within 4σ
@@ -364,7 +381,7 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
         pass
     fit = StripeFit(float(e), float(s), float(g), float(np.median(on)), float(np.median(off)),
                     tuple(float(k) for k in knots), tuple(float(v) for v in on), tuple(float(v) for v in off),
-                    tuple(float(p % period_rows) for p in phases), rms, uncertainties)
+                    tuple(float(p % period_rows) for p in phases), rms, uncertainties, gamma is not None)
     return whole_periods_removed(fit, period_rows)
 
 
