@@ -7,13 +7,15 @@
    without which nothing is fitted;
 2. the LED's region (:func:`rollsim.fit.measure.find_led_region`): its disk,
    or that it fills the frame, and a background block when there is one;
-3. the exposure, the ISP's vertical smoothing, the tone curve's γ and the
-   linear ON and OFF levels, from the stripes' shape (:mod:`rollsim.fit.stripes`);
-   clipped ON rows are modelled as the ADC clips them, so a saturated LED
-   gives its exposure from the ramps and the OFF runs' widths;
-4. the noise (:mod:`rollsim.fit.noise`): pairs (level, temporal variance)
-   from the rows that hold one unclipped level in two frames and from the
-   background; row noise and column pattern from the background;
+3. the noise (:mod:`rollsim.fit.noise`): pairs (level, temporal variance)
+   from the rows that hold one unclipped level in two frames, which tell a
+   linear tone curve from sRGB where they can (:func:`rollsim.fit.noise.tone_from_noise`);
+   and, from the background, its noise, row noise and column pattern;
+4. the exposure, the ISP's vertical smoothing, the tone curve's γ (unless
+   the noise told it) and the linear ON and OFF levels, from the stripes'
+   shape (:mod:`rollsim.fit.stripes`); clipped ON rows are modelled as the
+   ADC clips them, so a saturated LED gives its exposure from the ramps and
+   the OFF runs' widths;
 5. the LED's radial profile, from the brightest frame, when there is a disk.
 
 Each estimate carries its source: ``frames``, ``base scene`` (what frames

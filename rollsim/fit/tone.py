@@ -50,7 +50,14 @@ def encode(x, gamma: float) -> np.ndarray:
     if a <= 0.0:
         return np.power(x, 1.0 / gamma)
     x0, s = toe(gamma)
-    return np.where(x <= x0, s * x, (1.0 + a) * np.power(np.maximum(x, x0), 1.0 / gamma) - a)
+    # In place: the stripe fit evaluates this over every row of every frame at each step.
+    flat = x.reshape(-1)
+    v = np.power(flat, 1.0 / gamma)
+    v *= 1.0 + a
+    v -= a
+    toe_rows = flat <= x0
+    v[toe_rows] = s * flat[toe_rows]
+    return v.reshape(x.shape)
 
 
 def decode(v, gamma: float) -> np.ndarray:
