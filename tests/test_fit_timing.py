@@ -43,8 +43,9 @@ def test_frames_taken_at_no_one_rate_are_left_as_they_are():
     period_rows = 2.0 / (scene.link.clock_hz * scene.camera.row_time_us * 1e-6)
     phases = np.array([0.0, 0.31, -0.12, 0.45, 0.2, -0.36])  # no start and step within 0.1 period
     assert matched_timing(scene, list(phases * period_rows)) is None
-    # One frame always fits.
+    # One frame always fits; none gives nothing to fit.
     assert matched_timing(scene, [0.4 * period_rows]) is not None
+    assert matched_timing(scene, []) is None
     assert MAX_TIMING_RESIDUAL_PERIODS < 0.25  # random phases must not pass as one rate
 
 

@@ -89,12 +89,14 @@ def matched_timing(scene, shifts_rows: Sequence[float]):
         None when the shifts do not fit one period and start within
         :data:`MAX_TIMING_RESIDUAL_PERIODS` (frames not taken at one rate).
     """
+    if len(shifts_rows) == 0:
+        return None
     row_time_s, wave_s = scene.camera.row_time_us * 1e-6, 2.0 / scene.link.clock_hz
     d = np.asarray(shifts_rows, dtype=np.float64) * row_time_s / wave_s  # periods
     i = np.arange(d.size)
     step = float(np.angle(np.mean(np.exp(2j * np.pi * wrapped(np.diff(d))))) / (2 * np.pi)) if d.size > 1 else 0.0
     start = float(np.angle(np.mean(np.exp(2j * np.pi * (d - i * step)))) / (2 * np.pi))
-    if d.size == 0 or float(np.max(np.abs(wrapped(d - start - i * step)))) > MAX_TIMING_RESIDUAL_PERIODS:
+    if float(np.max(np.abs(wrapped(d - start - i * step)))) > MAX_TIMING_RESIDUAL_PERIODS:
         return None
     frame_period_s = 1.0 / scene.camera.frame_rate_hz + (step % 1.0) * wave_s
     camera = scene.camera.model_copy(update={"frame_rate_hz": 1.0 / frame_period_s})
