@@ -68,7 +68,8 @@ MAX_TIMING_RESIDUAL_PERIODS = 0.1
 
 def wrapped(x: np.ndarray) -> np.ndarray:
     """Fractions of a period wrapped into [−0.5, 0.5)."""
-    return np.asarray(x, dtype=np.float64) - np.floor(np.asarray(x, dtype=np.float64) + 0.5)
+    x = np.asarray(x, dtype=np.float64)
+    return x - np.floor(x + 0.5)
 
 
 def matched_timing(scene, shifts_rows: Sequence[float]):
