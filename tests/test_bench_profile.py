@@ -30,7 +30,7 @@ def test_a_phase_is_the_cumulative_time_of_its_function_and_zero_when_not_called
     seconds = phase_seconds(pstats.Stats(profiler))
     assert set(seconds) == {label for label, _file, _function in PHASES}
     assert seconds["calibrate: replays (within the goodput table)"] > 0.0
-    assert seconds["report: goodput plot"] == 0.0
+    assert seconds["report: run lengths plot (this process)"] == 0.0
 
 
 def test_the_table_lists_what_a_user_meets_in_order():
@@ -57,4 +57,4 @@ def test_the_command_profiles_a_small_run(tmp_path):
                  "--out", str(out)]) == 0
     result = json.loads((out / "profile.json").read_text())
     assert set(result["run"]["stages"]) == {"render and decode", "evaluate", "calibrate", "report"}
-    assert result["profiled"]["phases"]["report: sample frame plot"]["median"] > 0.0
+    assert result["profiled"]["phases"]["report: run lengths plot (this process)"]["median"] > 0.0

@@ -122,3 +122,27 @@ def test_an_rgb_run_decodes_what_its_pngs_hold(tmp_path):
     again = _decoded_again(out, tmp_path, "1")
     assert (again / "decoded.jsonl").read_bytes() == (out / "decoded.jsonl").read_bytes()
     assert json.loads((out / "decode.json").read_text())["sdus"] > 0
+
+
+def _without_times(report: str) -> str:
+    """``report.md`` without its table of seconds per stage (the one part that varies between runs)."""
+    start = report.index("## Time per stage")
+    return report[:start] + report[report.index("## Evaluation", start):]
+
+
+def test_two_workers_give_the_one_worker_run_byte_for_byte(run_dir, tmp_path):
+    """With workers, the calibration's modules load while they render, and a second process draws
+    half the plots beside the calibration: every file is the one-process run's (but the times)."""
+    out = tmp_path / "two"
+    assert main(["run", "paper-geometric", "--out", str(out), "--frames", "16", "--quiet",
+                 "--set", "camera.width_px=480", "--workers", "2"]) == 0
+    names = sorted(p.relative_to(run_dir) for p in run_dir.rglob("*") if p.is_file())
+    assert names == sorted(p.relative_to(out) for p in out.rglob("*") if p.is_file())
+    assert len([n for n in names if n.parts[0] == "plots"]) == 6
+    for name in names:
+        if name.name in ("report.md", "calibration.json", ".rollsim-output.json"):
+            continue  # the times; the run's directory name
+        assert (out / name).read_bytes() == (run_dir / name).read_bytes(), name
+    assert _without_times((out / "report.md").read_text()) == _without_times((run_dir / "report.md").read_text())
+    ours, theirs = (json.loads((d / "calibration.json").read_text()) for d in (out, run_dir))
+    assert {**ours, "source": ""} == {**theirs, "source": ""}

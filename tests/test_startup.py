@@ -46,10 +46,12 @@ def test_describe_and_render_do_not_import_what_they_do_not_use(tmp_path):
 
 # What loading the commands' modules may not import: the heavy modules are
 # imported inside the functions that need them (a glare's convolution, an
-# rlnc prediction, a compiled kernel, a progress bar, a plot).
+# rlnc prediction, a compiled kernel, a progress bar, a plot; `rollsim run`'s
+# calibration and plots, imported while its workers render).
 IMPORT_PROGRAM = """
 import json, sys
 import rollsim.cli, rollsim.stages.describe, rollsim.render.pipeline, rollsim.scene, rollsim.channel.eventsim
+import rollsim.report.run
 unused = {unused!r}
 print(json.dumps(sorted(n for n in sys.modules if any(n == u or n.startswith(u + ".") for u in unused))))
 """

@@ -17,7 +17,8 @@ smallest and largest beside it (its spread):
   (:data:`PHASES`): the render pipeline's set-up (the glare's transform,
   the footprint), loading the compiled kernels, the waits on the render
   and decode workers (their own work is not profiled: it is the wait),
-  each part of the calibration and each plot of the report.
+  each part of the calibration, and the report: the plot this process
+  draws and the wait on those a second process draws.
 
 The phases are the main process's; a phase that calls another includes it
 (the calibration's parts sum to less than the stage: the rest is its
@@ -55,12 +56,10 @@ PHASES = (
     ("calibrate: held-out likelihoods", "rollsim/calibrate/__init__.py", "heldout_logliks"),
     ("calibrate: goodput table", "rollsim/calibrate/goodput.py", "goodput_table"),
     ("calibrate: replays (within the goodput table)", "rollsim/calibrate/replay.py", "replay_goodput_bps"),
-    ("report: sample frame plot", "rollsim/report/plots.py", "plot_sample_frame"),
-    ("report: row profile plot", "rollsim/report/plots.py", "plot_row_profile"),
-    ("report: outcome timeline plot", "rollsim/report/plots.py", "plot_outcome_timeline"),
-    ("report: run lengths plot", "rollsim/report/plots.py", "plot_run_lengths"),
-    ("report: message curves plot", "rollsim/report/plots.py", "plot_message_curves"),
-    ("report: goodput plot", "rollsim/report/plots.py", "plot_goodput"),
+    # With workers, a second process draws the other plots (the frames' during
+    # the calibration, the later calibration plots during this one's).
+    ("report: run lengths plot (this process)", "rollsim/report/plots.py", "plot_run_lengths"),
+    ("report: waiting on the second process's plots", "rollsim/report/run.py", "drawn_beside"),
 )
 _STAGE_LINE = re.compile(r"^time: (.*)$", re.M)
 

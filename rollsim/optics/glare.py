@@ -95,6 +95,10 @@ def _quadrant_inside(radius: int, ry: int, rx: int) -> np.ndarray:
     return np.arange(rx + 1)[None, :] <= half_widths[:, None]
 
 
+# The last quadrant is kept: a scene's set-up and its prediction of the readable
+# rows (rollsim.channel.scene_channel), or the settings of a sweep that share
+# the camera and the LED's place, ask for the same one (about 50 ms at 1080p).
+@functools.lru_cache(maxsize=1)
 def moffat_quadrant(core_px: float, exponent: float, radius_rows: int, radius_cols: int) -> np.ndarray:
     """The scattered part of the glare kernel on offsets (0…rows, 0…cols): a quarter of :func:`moffat_kernel`.
 
@@ -116,6 +120,7 @@ def moffat_quadrant(core_px: float, exponent: float, radius_rows: int, radius_co
     Returns
     -------
     ndarray of float32, shape (rows + 1, cols + 1)
+        Read-only: the last one asked for is kept and handed out again.
     """
     if not core_px > 0:
         raise ValueError(f"core_px must be > 0, got {core_px}")
@@ -138,6 +143,7 @@ def moffat_quadrant(core_px: float, exponent: float, radius_rows: int, radius_co
     disk = (4.0 * inside[1:, 1:].sum(dtype=np.float64) + 2.0 * inside[1:, 0].sum(dtype=np.float64)
             + 2.0 * inside[0, 1:].sum(dtype=np.float64) + float(inside[0, 0]))
     quadrant *= np.float32((1.0 - moffat_mass_beyond(min(ry, rx), core_px, exponent)) / disk)
+    quadrant.flags.writeable = False  # kept and shared (above)
     return quadrant
 
 

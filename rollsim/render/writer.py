@@ -119,12 +119,20 @@ def check_render_disk(scene: Scene, n_frames: int, target: Path, what: str = "",
                n_frames * frame_disk_bytes(scene, video), target)
 
 
-def _init_worker(scene: Scene) -> None:
-    # Forked workers inherit the parent's pipeline (render_to_dir builds it
-    # first, to check the scene): the same scene object, nothing to rebuild.
+def prepare_render(scene: Scene) -> None:
+    """Build the render's pipeline of ``scene`` now (once: the render then uses it).
+
+    Raises the scene's errors (an impossible scene, a frame over the memory
+    budget) before anything is written. Forked workers inherit the pipeline:
+    the same scene object, nothing to rebuild.
+    """
     global _WORKER_PIPELINE
     if _WORKER_PIPELINE is None or _WORKER_PIPELINE.setup.scene is not scene:
         _WORKER_PIPELINE = RenderPipeline(scene)
+
+
+def _init_worker(scene: Scene) -> None:
+    prepare_render(scene)
 
 
 def _render_chunk(indices: list[int], frames_dir: Path, decode: Optional[Callable] = None) -> list[tuple]:

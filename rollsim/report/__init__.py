@@ -13,8 +13,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rollsim.calibrate import goodput_text, position_text
-from rollsim.calibrate.mmbp import p_e_text
 from rollsim.plumbing.text_tables import format_number, format_percent, markdown_table
 from rollsim.report.plots import (
     plot_goodput,
@@ -113,6 +111,10 @@ def _roi_lines(figures: dict) -> list[str]:
 
 
 def _calibration_lines(calibration: dict) -> list[str]:
+    # Here, not at the top: `rollsim run` imports this package before its render,
+    # and the calibration's SciPy while the workers render (rollsim.report.run).
+    from rollsim.calibrate import goodput_text, position_text
+    from rollsim.calibrate.mmbp import p_e_text
     m, ge, prediction = calibration["mmbp"], calibration["ge"], calibration.get("prediction")
     criteria = calibration["criteria"]
     parameters = {
@@ -190,7 +192,8 @@ def _timing_lines(timings: dict, n_frames: int) -> list[str]:
 
 
 def write_report(run_dir: Path, scene: Scene, evaluation, calibration: dict | None, timings: dict,
-                 calibration_error: str | None = None) -> Path:
+                 calibration_error: str | None = None, frame_figures: list | None = None,
+                 calibration_figures: list | None = None) -> Path:
     """Draw the plots and write ``report.md``; returns its path.
 
     Parameters
@@ -206,13 +209,21 @@ def write_report(run_dir: Path, scene: Scene, evaluation, calibration: dict | No
     timings : dict
         Seconds per stage, in order.
     calibration_error : str, optional
+    frame_figures, calibration_figures : list, optional
+        What :func:`draw_frame_plots` and :func:`draw_calibration_plots`
+        returned for this run, where they were drawn already (``rollsim
+        run`` draws them in two processes at once); drawn here otherwise.
     """
+
     from rollsim.stages.evaluate import read_jsonl
 
     run_dir = Path(run_dir)
+    if frame_figures is None:
+        frame_figures = draw_frame_plots(run_dir, scene, evaluation)
+    if calibration_figures is None:
+        calibration_figures = draw_calibration_plots(run_dir, calibration)
+    figures = frame_figures + calibration_figures
     truth = read_jsonl(run_dir / "truth.jsonl")
-    decoded = read_jsonl(run_dir / "decoded.jsonl")
-    figures = _draw_plots(run_dir, scene, evaluation, calibration, truth, decoded)
     lines = _report_lines(scene, evaluation, calibration, timings, calibration_error, len(truth), figures,
                           roi_figures(truth, scene.camera.height_px))
     report = run_dir / "report.md"
@@ -220,15 +231,23 @@ def write_report(run_dir: Path, scene: Scene, evaluation, calibration: dict | No
     return report
 
 
-def _draw_plots(run_dir: Path, scene: Scene, evaluation, calibration: dict | None, truth: list, decoded: list) -> list:
-    """Draw the report's plots under ``run_dir/plots``; ``(title, path)`` pairs in order."""
+def draw_frame_plots(run_dir: Path, scene: Scene, evaluation) -> list:
+    """Draw the plots of the frames and outcomes under ``run_dir/plots``: ``(title, path)`` pairs in order.
+
+    They need no calibration: the sample frame (the one with the most
+    PHY-SDUs decoded among the first few), its row profile and the
+    outcome timeline.
+    """
     from decoder import inspect_frame, read_frame
 
     from rollsim.stages.decode import frame_files, settings_from_scene
+    from rollsim.stages.evaluate import read_jsonl
 
+    run_dir = Path(run_dir)
     plots = run_dir / PLOTS_DIR
     plots.mkdir(exist_ok=True)
-    frame = sample_frame_index(decoded, len(truth))
+    truth = read_jsonl(run_dir / "truth.jsonl")
+    frame = sample_frame_index(read_jsonl(run_dir / "decoded.jsonl"), len(truth))
     image = read_frame(frame_files(run_dir)[frame])
     settings = settings_from_scene(scene)
     views = inspect_frame(image, settings.phy, settings.clock_hz, settings.row_time_s, frame)
@@ -237,14 +256,36 @@ def _draw_plots(run_dir: Path, scene: Scene, evaluation, calibration: dict | Non
         figures.append(("Its row profile and threshold", plot_row_profile(views[0], frame, plots / "row_profile.png")))
     if evaluation.outcomes:
         figures.append(("Outcome timeline", plot_outcome_timeline(evaluation.outcomes, truth, plots / "outcome_timeline.png")))
-    if calibration is not None:
-        figures += [
-            ("Run lengths", plot_run_lengths(calibration, plots / "run_lengths.png")),
-            ("P(message): fitted models against the trace", plot_message_curves(calibration, plots / "message_curves.png")),
-        ]
-        if calibration.get("goodput"):
-            figures.append(("Goodput: predicted against replayed", plot_goodput(calibration, plots / "goodput.png")))
     return figures
+
+
+# The calibration's plots, in the report's order: (title, plot function, file name).
+CALIBRATION_PLOTS = (
+    ("Run lengths", plot_run_lengths, "run_lengths.png"),
+    ("P(message): fitted models against the trace", plot_message_curves, "message_curves.png"),
+    ("Goodput: predicted against replayed", plot_goodput, "goodput.png"),
+)
+
+
+def calibration_plot_names(calibration: dict | None) -> list[str]:
+    """The file names of the calibration's plots a report holds, in order (none without a calibration)."""
+    if calibration is None:
+        return []
+    return [name for _, _, name in CALIBRATION_PLOTS if name != "goodput.png" or calibration.get("goodput")]
+
+
+def draw_calibration_plots(run_dir: Path, calibration: dict | None, names: list[str] | None = None) -> list:
+    """Draw the calibration's plots under ``run_dir/plots``: ``(title, path)`` pairs in order.
+
+    ``names`` (file names of :func:`calibration_plot_names`) draws those
+    alone; by default every one.
+    """
+    wanted = calibration_plot_names(calibration) if names is None else names
+    if calibration is None or not wanted:
+        return []
+    plots = Path(run_dir) / PLOTS_DIR
+    plots.mkdir(exist_ok=True)
+    return [(title, plot(calibration, plots / name)) for title, plot, name in CALIBRATION_PLOTS if name in wanted]
 
 
 def _report_lines(scene: Scene, evaluation, calibration: dict | None, timings: dict, calibration_error: str | None,

@@ -15,8 +15,10 @@ directory that appears only when every stage is done
 
 from __future__ import annotations
 
+import contextlib
 import json
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Iterable, Optional
@@ -28,6 +30,9 @@ if TYPE_CHECKING:
     from rollsim.scene.model import Scene
 
 STAGES = ("render and decode", "evaluate", "calibrate", "report")
+# What the stages after the render import (SciPy's optimiser, matplotlib: about
+# 0.9 s in a fresh process), imported while the workers render.
+LATER_MODULES = ("rollsim.calibrate", "rollsim.report", "matplotlib.figure", "matplotlib.backends.backend_agg")
 
 
 @dataclass(frozen=True)
@@ -76,6 +81,11 @@ class _StageClock:
                 self._on_stage(stage, "done")
 
 
+def drawn_beside(future: Future) -> list:
+    """The figures a second process drew (``(title, path)`` pairs), once it has."""
+    return future.result()
+
+
 def run_scene(
     scene: Scene,
     out_dir: Path,
@@ -119,21 +129,20 @@ def run_scene(
         An impossible scene, an unusable output directory, or (exit code 1)
         an OS failure while writing; ``out_dir`` is then left as it was.
     """
-    from rollsim.calibrate import calibrate, load_trace
+    from rollsim.plumbing.parallel import process_pool
+    from rollsim.plumbing.preload import preloading
     from rollsim.stages.decode import (DECODED_NAME, SUMMARY_NAME, DecodedRecords, DecodeSummary, FrameDecoder,
                                        settings_from_scene, summary_text)
     from rollsim.stages.records import scene_run_identifier
     from rollsim.stages.evaluate import evaluate_directory
-    from rollsim.render import RenderPipeline
     from rollsim.render.pipeline import check_render_memory
-    from rollsim.render.writer import check_render_disk, render_into
-    from rollsim.report import write_report
+    from rollsim.render.writer import check_render_disk, prepare_render, render_into
 
     if n_frames < 1:
         raise ValueError(f"n_frames must be >= 1, got {n_frames}")
     check_render_memory(scene, workers)
     check_render_disk(scene, n_frames, Path(out_dir))
-    RenderPipeline(scene)  # fail on an impossible scene before touching disk
+    prepare_render(scene)  # fails on an impossible scene before touching disk; the render's own pipeline
     clock = _StageClock(on_stage)
 
     def progress(stage):
@@ -141,25 +150,52 @@ def run_scene(
 
     settings = settings_from_scene(scene)
     decode = FrameDecoder(settings, scene_run_identifier(scene))
-    with staged_directory(Path(out_dir), force, inputs) as staging:
+    with staged_directory(Path(out_dir), force, inputs) as staging, preloading(LATER_MODULES) as preload:
         summary = DecodeSummary(settings, frames=n_frames)
         with open(staging / DECODED_NAME, "w", encoding="utf-8") as decoded:
             written = DecodedRecords(decoded, summary, staging, on_skipped)
+
+            def on_decoded(result) -> None:
+                written.add(*result)
+                if workers > 1:  # the workers have forked (see rollsim.plumbing.preload)
+                    preload.start()
+
             clock.run("render and decode", lambda: render_into(scene, staging, n_frames, workers,
                                                                progress("render and decode"), decode=decode,
-                                                               on_decoded=lambda result: written.add(*result)))
+                                                               on_decoded=on_decoded))
         (staging / SUMMARY_NAME).write_text(summary_text(summary), encoding="utf-8")
         evaluation = clock.run("evaluate", lambda: evaluate_directory(staging))
+        preload.join()  # before the fork below, and the imports below find the modules loaded
+        from rollsim.calibrate import calibrate, load_trace
+        from rollsim.report import calibration_plot_names, draw_calibration_plots, draw_frame_plots, write_report
+
         reason: Optional[str] = None
-        try:
-            calibration = clock.run("calibrate", lambda: calibrate(load_trace(staging, source=str(out_dir))))
-        except RollsimError as exc:
-            # Nothing decoded (a dark or undecodable scene) is a finding, not
-            # bad input: the run still reports what the decoder saw. A file's
-            # error names the temporary directory: name the run's.
-            calibration, reason = None, str(exc).replace(str(staging), str(out_dir))
-        else:
-            (staging / "calibration.json").write_text(json.dumps(calibration, indent=2, allow_nan=False) + "\n",
-                                                      encoding="utf-8")
-        clock.run("report", lambda: write_report(staging, scene, evaluation, calibration, clock.timings, reason))
+        with contextlib.ExitStack() as beside:
+            # With workers, one more process draws the plots of the frames
+            # while the calibration runs (they need none), then the later
+            # calibration plots while this one draws the first.
+            pool = beside.enter_context(process_pool(1)) if workers > 1 else None
+            frames_drawn = None if pool is None else pool.submit(draw_frame_plots, staging, scene, evaluation)
+            try:
+                calibration = clock.run("calibrate", lambda: calibrate(load_trace(staging, source=str(out_dir))))
+            except RollsimError as exc:
+                # Nothing decoded (a dark or undecodable scene) is a finding, not
+                # bad input: the run still reports what the decoder saw. A file's
+                # error names the temporary directory: name the run's.
+                calibration, reason = None, str(exc).replace(str(staging), str(out_dir))
+            else:
+                (staging / "calibration.json").write_text(json.dumps(calibration, indent=2, allow_nan=False) + "\n",
+                                                          encoding="utf-8")
+
+            def report() -> None:
+                if pool is None or frames_drawn is None:
+                    write_report(staging, scene, evaluation, calibration, clock.timings, reason)
+                    return
+                names = calibration_plot_names(calibration)
+                later = pool.submit(draw_calibration_plots, staging, calibration, names[1:])
+                first = draw_calibration_plots(staging, calibration, names[:1])
+                write_report(staging, scene, evaluation, calibration, clock.timings, reason,
+                             frame_figures=drawn_beside(frames_drawn), calibration_figures=first + drawn_beside(later))
+
+            clock.run("report", report)
     return RunSummary(Path(out_dir), n_frames, evaluation.summary, calibration, clock.timings, reason)
