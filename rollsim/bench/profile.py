@@ -47,7 +47,7 @@ REPEATS = 3
 # (label, file suffix, function): cumulative seconds in the main process's profile.
 PHASES = (
     ("render set-up: pipelines (glare transform, footprint)", "rollsim/render/pipeline.py", "__init__"),
-    ("render: compiled kernels loaded (numba)", "rollsim/sensor/chain.py", "warm_up"),
+    ("render: compiled kernels loaded (numba), frame 0 run once", "rollsim/render/writer.py", "warm_up_render"),
     ("render and decode: waiting on the workers", "rollsim/plumbing/parallel.py", "ordered_chunk_map"),
     ("evaluate", "rollsim/stages/evaluate.py", "evaluate_directory"),
     ("calibrate: MMBP fit", "rollsim/calibrate/__init__.py", "fit_mmbp"),

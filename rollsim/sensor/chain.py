@@ -721,24 +721,9 @@ def run_noiseless_chain(electrons: np.ndarray, full_well_e: Optional[float], adc
     return NoiselessChain(flat.reshape(shape), dn.reshape(shape), None if out is None else out.reshape(shape))
 
 
-def warm_up() -> None:
-    """Compile (or load from the cache) the chain's kernels now, e.g. before worker processes fork and inherit them.
-
-    Builds the tables of a mean of 1 and of the classes next to it only
-    (a few hundred microseconds).
-    """
-    if _chain_kernel.compiled is None:
-        return
-    lam = np.full(8, 1.0)
-    keys = ChainKeys(np.uint64(0), np.uint64(0))
-    run_chain(lam, "poisson", keys, full_well_e=1.0, read_sigma_e=1.0, adc=Adc(1.0, 0, 8), lut=np.zeros(256, np.uint8))
-    build_classes_from(lam, 0)
-
-
 def shot_poisson(key: np.uint64, lam: np.ndarray) -> np.ndarray:
     """Poisson deviates of means ``lam`` from counter stream ``key``, float32 (see :mod:`rollsim.sensor.poisson`)."""
     return run_chain(lam, "poisson", ChainKeys(shot=key))
 
 
-__all__ = ["Adc", "CHAIN_ORDER", "ChainKeys", "ChainStep", "SHOT_METHODS", "run_chain", "run_noiseless_chain", "shot_poisson",
-           "warm_up"]
+__all__ = ["Adc", "CHAIN_ORDER", "ChainKeys", "ChainStep", "SHOT_METHODS", "run_chain", "run_noiseless_chain", "shot_poisson"]

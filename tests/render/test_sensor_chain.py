@@ -232,3 +232,17 @@ def test_the_noiseless_chain_is_the_clip_and_the_adc_to_the_bit(full_well, table
     got = done.dn if lut is None else done.image
     assert got.dtype == expected.dtype and got.shape == electrons.shape
     assert np.array_equal(got, expected)
+
+
+def test_the_warm_up_before_the_workers_fork_loads_what_the_frames_run():
+    """numba keeps one machine code per pattern of arguments: the warm-up runs the scene's own
+    stages, so a frame rendered after it (in a forked worker) loads no other."""
+    from rollsim.render.writer import warm_up_render
+
+    if chain._chain_kernel.compiled is None:
+        pytest.skip("numba is not used here")
+    pipeline = RenderPipeline(load_scene("paper-default", ["camera.width_px=320", "camera.height_px=240"]))
+    warm_up_render(pipeline)
+    loaded = len(chain._chain_kernel.compiled.signatures)
+    pipeline.render(7)
+    assert len(chain._chain_kernel.compiled.signatures) == loaded >= 1
