@@ -1205,6 +1205,16 @@ def _add_bench_commands(sub) -> None:
     _add_force(p, "those files if present")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
+    p = add("waits", "the waits a user meets, each against its target: paper, run, render against its engine, "
+            "the tour's sweep, describe, one frame's render on one core (docs/speed.md)")
+    p.add_argument("--repeats", type=_positive_int, default=3, help="runs of each row (default 3)")
+    p.add_argument("--only", nargs="+", metavar="WAIT", default=None,
+                   help="measure these rows only: paper paper-quick run render sweep describe default-effects blooming")
+    p.add_argument("--all", action="store_true", help="every row, the full paper's (minutes a run) too")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    _add_json_file(p)
+    _add_force(p, "the --json file if present")
+
     p = add("accuracy", "what accuracy costs: each fidelity setting against the most accurate one, in time, image "
             "error, noise distribution, decode outcomes and the MMBP fit; and each effect's cost")
     p.add_argument("scene", metavar="SCENE", help="scene file or bundled scene name")
