@@ -10,8 +10,9 @@ probability g(L) = [(T D₀)^L T]₁₁ · (1 − p_e), with T the transition ma
 and D₀ = diag(p_e, 1) the failure emission. The trace's likelihood is the
 product of g over its gaps, times the opening segment (stationary start up to
 the first success) and the closing one (failures after the last). Powers of
-the 2 × 2 matrix are taken by log-scaled squaring for every distinct gap
-length at once, so a trace of any length costs O(distinct gaps × log L).
+the 2 × 2 matrix are taken by scaled squaring for every distinct gap length
+(:mod:`rollsim.numerics.ge_likelihood`, compiled), so a trace of any
+length costs O(distinct gaps × log L).
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 from scipy.special import expit, logit
+
+from rollsim.numerics.ge_likelihood import ge_loglik_of_powers
 
 # Parameters are kept this far from 0 and 1 during optimisation.
 _EDGE = 1e-9
@@ -48,38 +51,6 @@ def _gaps(success: np.ndarray) -> tuple[np.ndarray, int, int, int]:
     return np.diff(idx) - 1, int(idx[0]), int(success.size - 1 - idx[-1]), 0
 
 
-def _log_matrix_powers(A: np.ndarray, exponents: np.ndarray):
-    """A**L for each L, as (mantissa matrices, log scale): A**L = M · exp(s)."""
-    k = exponents.size
-    result = np.broadcast_to(np.eye(2), (k, 2, 2)).copy()
-    log_scale = np.zeros(k)
-    power, power_log = A.copy(), 0.0
-    remaining = exponents.copy()
-    while np.any(remaining > 0):
-        use = (remaining & 1).astype(bool)
-        if use.any():
-            result[use] = result[use] @ power
-            norm = np.abs(result[use]).max(axis=(1, 2))
-            norm = np.where(norm > 0, norm, 1.0)
-            result[use] /= norm[:, None, None]
-            log_scale[use] += np.log(norm) + power_log
-        remaining >>= 1
-        power = power @ power
-        norm = np.abs(power).max()
-        if norm == 0:
-            power_log = -np.inf
-            power = np.zeros((2, 2))
-        else:
-            power /= norm
-            power_log = 2 * power_log + np.log(norm)
-    return result, log_scale
-
-
-def _safe_log(x):
-    with np.errstate(divide="ignore"):
-        return np.log(x)
-
-
 class GeTrace:
     """A 0/1 trace read for :func:`ge_loglik` once: its gaps between successes, counted by length.
 
@@ -105,34 +76,9 @@ class GeTrace:
         self._head = 1 if (not self.none and self.opening > 0) else 0
 
     def loglik(self, p: float, q: float, p_e: float) -> float:
-        """Exact log-likelihood of the trace under Gilbert-Elliott (p, q, p_e)."""
-        T = np.array([[1 - q, q], [p, 1 - p]])
-        pi = np.array([p, q]) / (p + q)
-        D0 = np.array([p_e, 1.0])
-        A = T * D0[None, :]  # T D0: transition, then a failure
-        mats, logs = _log_matrix_powers(A, self.exponents)
-        if self.none:
-            # No success at all: π D0 (T D0)^(n-1) 1.
-            value = (pi * D0) @ mats[0] @ np.ones(2)
-            return float(_safe_log(value) + logs[0])
-        total = 0.0
-        # Opening: stationary start, `opening` failures, then a success in S1:
-        # π D0 (T D0)^(opening-1) T D1 with D1 = diag(1 - p_e, 0).
-        if self.opening == 0:
-            total += float(_safe_log(pi[0] * (1 - p_e)))
-        else:
-            v = (pi * D0) @ mats[0] @ T
-            total += float(_safe_log(v[0] * (1 - p_e)) + logs[0])
-        # Gaps between successes: g(L) = [(T D0)^L T]_11 (1 - p_e).
-        n_gaps = self.lengths.size
-        if n_gaps:
-            gap_mats, gap_logs = mats[self._head:self._head + n_gaps], logs[self._head:self._head + n_gaps]
-            g = (gap_mats @ T)[:, 0, 0] * (1 - p_e)
-            total += float(np.sum(self.counts * (_safe_log(g) + gap_logs)))
-        # Closing: from S1, `closing` more failures: e1 (T D0)^closing 1.
-        if self.closing > 0:
-            total += float(_safe_log(mats[-1][0].sum()) + logs[-1])
-        return total
+        """Exact log-likelihood of the trace under Gilbert-Elliott (p, q, p_e); −inf where impossible."""
+        return ge_loglik_of_powers(p, q, p_e, self.exponents, self.counts, self._head, self.lengths.size,
+                                   self.closing > 0, self.none > 0)
 
 
 def ge_loglik(success, p: float, q: float, p_e: float) -> float:

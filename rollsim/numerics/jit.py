@@ -42,7 +42,8 @@ _DISABLED = ("0", "false", "no", "off")
 # Every module whose code or constants a kernel compiles in.
 KERNEL_SOURCES = ("rollsim.numerics.jit", "rollsim.numerics.counter_rng", "rollsim.numerics.gaussian", "rollsim.sensor.poisson",
                   "rollsim.sensor.chain", "rollsim.sensor.blooming", "rollsim.isp.jpeg_islow",
-                  "rollsim.isp.filters", "rollsim.optics.motion", "rollsim.protocol.gf2")
+                  "rollsim.isp.filters", "rollsim.optics.motion", "rollsim.protocol.gf2",
+                  "rollsim.numerics.ge_likelihood")
 
 
 # Set by numpy_only(): work too short to pay for numba's import and cache load.
