@@ -48,3 +48,19 @@ def test_describe_is_timed_as_a_fresh_process(tmp_path, capsys):
     (row,) = result["rows"]
     assert row["key"] == "describe" and len(row["values"]) == 2 and 0.05 < row["min"] <= row["median"] < 30
     assert "rollsim describe paper-default" in capsys.readouterr().out
+
+
+def test_the_modules_bytecode_is_written_whatever_the_environment_says(monkeypatch):
+    # A fresh process then reads rollsim's modules compiled, as after an install's first run,
+    # even where PYTHONDONTWRITEBYTECODE stops the import system from writing them.
+    import importlib.util
+    from pathlib import Path
+
+    import rollsim.version
+    from rollsim.bench.common import write_bytecode
+
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    cached = Path(importlib.util.cache_from_source(rollsim.version.__file__))
+    cached.unlink(missing_ok=True)
+    write_bytecode()
+    assert cached.is_file() and cached.stat().st_size > 0

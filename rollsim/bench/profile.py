@@ -1,7 +1,9 @@
 """``rollsim bench profile``: where a user's wait goes in ``rollsim run`` and ``rollsim describe``.
 
 Each figure is the median of ``--repeats`` runs on this machine, with the
-smallest and largest beside it (its spread):
+smallest and largest beside it (its spread). The fresh processes start with
+the modules' bytecode written, as after an install's first run
+(:func:`rollsim.bench.common.write_bytecode`):
 
 * **start-up**: the wall time of fresh processes that do no work of a
   scene's: Python alone, ``import rollsim.cli``, the heavy imports some
@@ -40,7 +42,7 @@ import time
 from pathlib import Path
 from typing import Optional, Sequence
 
-from rollsim.bench.common import machine, strict_floats
+from rollsim.bench.common import machine, strict_floats, write_bytecode
 from rollsim.plumbing.text_tables import format_table, markdown_table
 
 REPEATS = 3
@@ -159,6 +161,7 @@ def bench_profile(scene: str, frames: Optional[int] = None, repeats: int = REPEA
     scene = str(Path(scene).resolve()) if Path(scene).is_file() else scene
     with tempfile.TemporaryDirectory(prefix="rollsim-profile-") as tmp:
         workdir = Path(tmp)
+        write_bytecode()  # the fresh processes start as after an install's first run
         say("start-up")
         first = startup(scene, repeats, workdir)
         say(f"rollsim run {scene}, {repeats} fresh processes")

@@ -50,7 +50,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable, Optional, Sequence
 
 import numpy as np
 
-from rollsim.bench.common import machine, one_opencv_thread, seconds_per_call, strict_floats
+from rollsim.bench.common import machine, one_opencv_thread, seconds_per_call, strict_floats, write_bytecode
 from rollsim.bench.effect_cost import effect_cost
 from rollsim.plumbing.outputs import write_file
 from rollsim.plumbing.text_tables import format_table
@@ -356,22 +356,19 @@ def startup_seconds(args: Sequence[str], runs: int, out_arg: bool = False) -> li
     """Wall seconds of ``rollsim ARGS`` as a fresh process, per run.
 
     With ``out_arg``, ``--out DIR`` is added, a directory that does not
-    exist yet (in a temporary directory removed afterwards). One untimed
-    run first writes the modules' bytecode, as any first run of an install
-    does: where ``PYTHONDONTWRITEBYTECODE`` is set (it stops the writing,
-    not the reading), every run would otherwise compile rollsim's modules
-    again, 0.1 to 0.4 s that a normal install does not pay.
+    exist yet (in a temporary directory removed afterwards). The modules'
+    bytecode is written first (:func:`rollsim.bench.common.write_bytecode`),
+    and one untimed run reads the files the command needs into the page
+    cache, as any first run of an install does.
     """
     seconds = []
     tmp = tempfile.mkdtemp()
+    write_bytecode()
     try:
         for run in range(-1, runs):
             argv = [*rollsim_command(), *args] + (["--out", str(Path(tmp) / f"out{run + 1}")] if out_arg else [])
-            environment = None
-            if run < 0:
-                environment = {key: value for key, value in os.environ.items() if key != "PYTHONDONTWRITEBYTECODE"}
             start = time.perf_counter()
-            subprocess.run(argv, check=True, capture_output=True, env=environment)
+            subprocess.run(argv, check=True, capture_output=True)
             if run >= 0:
                 seconds.append(time.perf_counter() - start)
     finally:

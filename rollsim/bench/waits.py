@@ -6,7 +6,8 @@ smallest and largest beside it (the machine's spread), its target and
 whether the median meets it.
 
 * **commands as a user runs them** (a fresh process, start-up included,
-  output into a new temporary directory): ``rollsim paper`` (the full
+  output into a new temporary directory, the modules' bytecode written as
+  after an install's first run, :func:`rollsim.bench.common.write_bytecode`): ``rollsim paper`` (the full
   reproduction; only with ``--all`` or ``--only paper``: minutes a run),
   ``rollsim paper --quick``, ``rollsim run paper-default``, the README
   tour's sweep and ``rollsim describe paper-default``;
@@ -36,7 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from rollsim.bench.common import machine, strict_floats
+from rollsim.bench.common import machine, strict_floats, write_bytecode
 from rollsim.plumbing.text_tables import format_table
 
 REPEATS = 3
@@ -174,8 +175,7 @@ def bench_waits(waits: Sequence[Wait], repeats: int = REPEATS,
     rows = []
     with tempfile.TemporaryDirectory(prefix="rollsim-waits-") as tmp:
         workdir = Path(tmp)
-        # A first describe writes the modules' bytecode, as any first run of an install does.
-        fresh_process_seconds(["describe", "paper-default"], None)
+        write_bytecode()
         for wait in waits:
             values = []
             for k in range(repeats):
