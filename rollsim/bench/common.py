@@ -43,12 +43,12 @@ def write_bytecode() -> None:
     installer wrote the bytecode.
     """
     import compileall
+    import importlib.util
 
-    import decoder
-    import rollsim
-
-    for package in (rollsim, decoder):
-        compileall.compile_dir(str(Path(str(package.__file__)).parent), quiet=2)
+    for package in ("rollsim", "decoder"):
+        spec = importlib.util.find_spec(package)  # where it is, without importing it
+        for folder in (spec.submodule_search_locations or []) if spec is not None else []:
+            compileall.compile_dir(folder, quiet=2)
 
 
 def strict_floats(value):
