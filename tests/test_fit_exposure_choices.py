@@ -39,6 +39,8 @@ def test_every_choice_makes_the_same_stripes_and_no_negative_light(exposure, on,
     first = _levels(fitted[0], rows, 3.0)
     for c in choices:
         assert c.off >= MIN_OFF_LEVEL
+        if c.off_at_face:
+            continue  # moved within its branch: test_a_choice_of_negative_light_is_moved_to_the_faces_off_level
         # The same stripes: directly, or half a period on (the reflection), at some phase.
         phases = np.linspace(0.0, PERIOD, 401)
         best = min(np.max(np.abs(_levels(c, rows, p) - first)) for p in phases)
@@ -48,13 +50,25 @@ def test_every_choice_makes_the_same_stripes_and_no_negative_light(exposure, on,
 
 
 def test_the_choices_are_ordered_by_the_off_level_nearest_the_face():
-    # Without a background the face is dark: the OFF level nearest 0 comes first.
+    # Without a background the face is taken as dark (the OFF level nearest 0 comes first), but its
+    # light is not measured: the choices below zero are left out.
     base = load_scene("paper-geometric", [])
-    choices = exposure_choices(_measured(12.0, 0.9, 0.5), base)
-    offs = [abs(c.off) for c in choices]
-    assert offs == sorted(offs)
+    unmeasured = exposure_choices(_measured(12.0, 0.9, 0.5), base)
+    assert sorted(round(c.exposure_rows, 9) for c in unmeasured) == [8.0, 12.0, 28.0, 32.0]
+    assert not any(c.off_at_face for c in unmeasured)
+    # A black background: the face is measured dark.
+    choices = exposure_choices(_measured(12.0, 0.9, 0.5, background=0.0), base)
     # E = 12 rows of P = 20 and its reflection 8, each with one more period (OFF lower by 1/3 each).
-    assert sorted(round(c.exposure_rows, 9) for c in choices) == [8.0, 12.0, 28.0, 32.0]
+    kept = [c for c in choices if not c.off_at_face]
+    assert sorted(round(c.exposure_rows, 9) for c in kept) == [8.0, 12.0, 28.0, 32.0]
+    offs = [abs(c.off) for c in kept]
+    assert offs == sorted(offs)
+    # Two periods more would need OFF levels of -0.1 (reflected) and -1/6: each is moved within
+    # its branch to an OFF level of 0 (the profile spans 0.5667 … 0.8333, rho = 0.68), and keeps
+    # its place: 49.41 rows (2 periods and 0.941 chips) first, 50.4 (2 periods and 1.04 chips) next.
+    moved = [c for c in choices if c.off_at_face]
+    assert [round(c.exposure_rows, 2) for c in moved] == [49.41, 50.4]
+    assert choices.index(moved[0]) == 0 and choices.index(moved[1]) in (1, 2)
 
 
 def test_alternatives_follow_the_refined_exposure():
@@ -101,3 +115,46 @@ def test_a_rendered_choice_replaces_the_first_only_by_a_clear_margin(mismatches,
     if kept:
         assert mismatches[0] > RENDERED_MARGIN * mismatches[kept]
         assert mismatches[0] - mismatches[kept] > RENDERED_GAIN
+
+
+def test_a_choice_of_negative_light_is_moved_to_the_faces_off_level():
+    # The truth: P = 20 rows, E = 17 (1.7 chips), ON 1, OFF 0 (a dark face): the profile spans
+    # 0.7/1.7 … 1/1.7. The stripe fit traded a row of exposure for smoothing and read the
+    # reflection as 2 rows, not 3, with the same extremes (E = 2 < P/2: OFF and ON are them).
+    # Its reflection, 18 rows, would need an OFF level of -0.29: moved within its branch (no
+    # whole period, the upper half) to OFF 0 (a black background measures the face dark), it is
+    # the truth, exactly, and comes first.
+    from rollsim.fit.stripes import profile_extremes
+
+    base = load_scene("paper-geometric", [])
+    y_min, y_max = 0.7 / 1.7, 1.0 / 1.7
+    choices = exposure_choices(_measured(2.0, y_max, y_min, background=0.0), base)
+    first = choices[0]
+    assert first.off_at_face and first.reflected and first.whole_periods == 0
+    assert (first.exposure_rows, first.on, first.off) == (pytest.approx(17.0), pytest.approx(1.0), 0.0)
+    for c in choices:
+        if c.off_at_face:
+            assert c.off == 0.0
+            assert profile_extremes(c.exposure_rows, c.on, c.off, PERIOD) == (pytest.approx(y_min), pytest.approx(y_max))
+            within = c.exposure_rows - c.whole_periods * PERIOD
+            assert 0 < within < PERIOD
+
+
+@pytest.mark.parametrize("whole", [0, 1, 2, 3])
+@pytest.mark.parametrize("chips", [0.2, 0.7, 1.0, 1.3, 1.9])
+def test_the_exposure_for_an_off_level_inverts_the_box(whole, chips):
+    # A box of 2k + r chips on levels ON, OFF spans known extremes; given them and OFF, the
+    # exposure of its branch comes back.
+    from rollsim.fit.stripes import exposure_for_off_level, profile_extremes
+
+    exposure = (2 * whole + chips) * PERIOD / 2
+    on, off = 0.8, 0.05
+    y_min, y_max = profile_extremes(exposure, on, off, PERIOD)
+    upper = chips >= 1.0
+    found = exposure_for_off_level(y_min, y_max, off, PERIOD, whole, upper)
+    if whole == 0 and not upper:
+        assert found is None  # OFF is the profile's least level there: every such box makes it
+    else:
+        assert found == (pytest.approx(exposure), pytest.approx(on))
+    assert exposure_for_off_level(y_min, y_max, y_min + 0.01, PERIOD, whole, upper) is None  # OFF above the least
+

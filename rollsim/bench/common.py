@@ -6,7 +6,6 @@ import contextlib
 import math
 import platform
 import time
-from pathlib import Path
 from typing import Callable
 
 import numpy as np

@@ -40,8 +40,8 @@ from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, fi
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
     photon_transfer, \
     tone_from_noise, tone_slope, unclipped
-from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, fit_stripes, levels_for_whole_periods, \
-    reflected_levels
+from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, exposure_for_off_level, fit_stripes, \
+    levels_for_whole_periods, profile_extremes, reflected_levels
 from rollsim.scene.model import Scene
 from rollsim.sensor.adc import full_scale_electrons
 
@@ -328,7 +328,9 @@ class ExposureChoice:
     """One exposure the stripes allow, and the linear levels it implies.
 
     ``reflected``: the reflection E ↔ P − E of the fitted exposure;
-    ``whole_periods``: the stripe periods added to it.
+    ``whole_periods``: the stripe periods added to it; ``off_at_face``: the
+    exposure moved within its branch to put an OFF level below zero at the
+    face's (:func:`exposure_choices`).
     """
 
     exposure_rows: float
@@ -336,6 +338,7 @@ class ExposureChoice:
     off: float
     reflected: bool
     whole_periods: int
+    off_at_face: bool = False
 
 
 def face_level(m: Measured, base: Scene) -> float:
@@ -354,11 +357,24 @@ def exposure_choices(m: Measured, base: Scene) -> list[ExposureChoice]:
     reflection E ↔ P − E (:func:`rollsim.fit.stripes.levels_for_whole_periods`,
     :func:`rollsim.fit.stripes.reflected_levels`): frames rendered with any
     of these choices are the same where they do not clip. Each implies its
-    own OFF level. Light is never negative: a choice whose OFF level is below
-    zero (beyond the fit's noise, :data:`MIN_OFF_LEVEL`) is left out (unless
-    every one is). An LED is dark when OFF: the rest are ordered by how near
-    their OFF level is to the ambient light on the LED's face
+    own OFF level. An LED is dark when OFF: the choices are ordered by how
+    near their OFF level is to the ambient light on the LED's face
     (:func:`face_level`).
+
+    Light is never negative. A choice whose OFF level is below zero (beyond
+    the fit's noise, :data:`MIN_OFF_LEVEL`) is not possible as it stands, but
+    its branch may be: the stripe fit trades exposure against smoothing
+    (both widen the ramps), and a shift of the fitted exposure by a row
+    moves the OFF level a choice of many more rows implies by much more.
+    Where the frames show a background (the face's light is measured), such
+    a choice is replaced by the exposure of its branch (its whole periods,
+    and the half of a period its remainder lies in) that puts the OFF level
+    at the face's, with the profile's least and greatest levels kept
+    (:func:`rollsim.fit.stripes.exposure_for_off_level`); it keeps its place
+    in the order. Without a background the face's light is only assumed
+    dark, and an LED filling the frame often has light on its face: such a
+    choice is left out, as is a branch without such an exposure (unless
+    every choice is).
     """
     s, period = m.stripes, m.stripes_period_rows
     # A wave fitted upside down (ON below OFF) is the same wave half a period
@@ -372,9 +388,23 @@ def exposure_choices(m: Measured, base: Scene) -> list[ExposureChoice]:
         for k in range(MAX_WHOLE_PERIODS + 1):
             exposure, on, off = levels_for_whole_periods(e0, a, b, period, k)
             candidates.append(ExposureChoice(float(exposure), float(on), float(off), reflected, k))
-    possible = [c for c in candidates if c.off >= MIN_OFF_LEVEL] or candidates
     face = face_level(m, base)
-    return sorted(possible, key=lambda c: abs(c.off - face))
+    y_min, y_max = profile_extremes(s.exposure_rows, on0, off0, period)
+    ranked = []
+    for c in candidates:
+        if c.off >= MIN_OFF_LEVEL:
+            ranked.append((abs(c.off - face), c))
+            continue
+        if m.background is None:
+            continue  # the face's light is not measured, only assumed dark: no level to move the choice to
+        e = c.exposure_rows - c.whole_periods * period
+        pinned = exposure_for_off_level(y_min, y_max, face, period, c.whole_periods, upper_half=e >= 0.5 * period)
+        if pinned is not None:
+            ranked.append((abs(c.off - face),
+                           ExposureChoice(pinned[0], pinned[1], face, c.reflected, c.whole_periods, True)))
+    if not ranked:
+        ranked = [(abs(c.off - face), c) for c in candidates]
+    return [c for _, c in sorted(ranked, key=lambda item: item[0])]
 
 
 def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:

@@ -419,6 +419,44 @@ def reflected_levels(e_rows: float, on, off, period_rows: float) -> tuple:
     return period_rows - e_rows, new_off + new_delta, new_off
 
 
+def profile_extremes(e_rows: float, on: float, off: float, period_rows: float) -> tuple[float, float]:
+    """The least and greatest level of the row profile (before smoothing) that ``on``, ``off`` and ``e_rows`` make.
+
+    Every exposure and levels that make the same profile (:func:`levels_for_whole_periods`,
+    :func:`reflected_levels`) give the same two.
+    """
+    low, high = box_level_range(2.0 * e_rows / period_rows)
+    return off + (on - off) * low, off + (on - off) * high
+
+
+def exposure_for_off_level(y_min: float, y_max: float, off: float, period_rows: float, whole: int,
+                           upper_half: bool) -> tuple[float, float] | None:
+    """The exposure whose OFF level is ``off`` and whose profile spans ``y_min`` … ``y_max``, and its ON level.
+
+    With E = k·P + r·P/2 (k ``whole`` periods, r in [0, 2) chips), the
+    fraction ON over the box spans (k + max(0, r − 1))/E … (k + min(r, 1))/E
+    (:func:`box_level_range`), so with the OFF level fixed the ratio
+    ρ = (y_min − off)/(y_max − off) fixes r: r = 1 + ρ(k + 1) − k in the upper
+    half of a period (r ≥ 1), r = k/ρ − k in the lower half. Returns
+    ``(exposure_rows, on)``, or None where no exposure of that branch makes
+    the profile (ρ outside [0, 1), or r outside its half).
+    """
+    if not y_max > off or y_min < off:
+        return None
+    rho = (y_min - off) / (y_max - off)
+    if upper_half:
+        rest = 1.0 + rho * (whole + 1) - whole
+        valid = 1.0 <= rest < 2.0
+    else:
+        rest = whole / rho - whole if rho > 0 else math.inf
+        valid = 0.0 < rest < 1.0
+    if not valid:
+        return None
+    exposure_chips = 2.0 * whole + rest
+    high = box_level_range(exposure_chips)[1]
+    return exposure_chips * period_rows / 2.0, off + (y_max - off) / high
+
+
 def whole_periods_removed(fit: StripeFit, period_rows: float) -> StripeFit:
     """The same profile with the exposure brought into (0, P] (see :func:`levels_for_whole_periods`)."""
     whole = int(np.ceil(fit.exposure_rows / period_rows - 1e-9)) - 1
