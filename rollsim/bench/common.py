@@ -5,8 +5,12 @@ from __future__ import annotations
 import contextlib
 import math
 import platform
+import shlex
+import statistics
+import subprocess
 import time
-from typing import Callable
+from pathlib import Path
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 
@@ -28,6 +32,21 @@ def machine() -> dict:
     import os
 
     return {"python": platform.python_version(), "cpus": os.cpu_count(), "machine": platform.machine()}
+
+
+def spread(values: Sequence[float]) -> dict:
+    """``{"median", "min", "max"}`` of ``values``."""
+    return {"median": float(statistics.median(values)), "min": float(min(values)), "max": float(max(values))}
+
+
+def timed_process(argv: Sequence[str], cwd: Optional[Path] = None) -> tuple[float, str]:
+    """Wall seconds and standard output of ``argv`` run as a fresh process; raises with its stderr if it fails."""
+    start = time.perf_counter()
+    done = subprocess.run(list(argv), cwd=cwd, capture_output=True, text=True, check=False)
+    seconds = time.perf_counter() - start
+    if done.returncode != 0:
+        raise RuntimeError(f"{shlex.join(argv)}: exit {done.returncode}: {done.stderr.strip()[-300:]}")
+    return seconds, done.stdout
 
 
 def write_bytecode() -> None:

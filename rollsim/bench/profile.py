@@ -34,15 +34,13 @@ import json
 import pstats
 import re
 import shlex
-import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Optional
 
-from rollsim.bench.common import machine, strict_floats, write_bytecode
+from rollsim.bench.common import machine, spread, strict_floats, timed_process, write_bytecode
 from rollsim.plumbing.text_tables import format_table, markdown_table
 
 REPEATS = 3
@@ -66,18 +64,6 @@ PHASES = (
 _STAGE_LINE = re.compile(r"^time: (.*)$", re.M)
 
 
-def spread(values: Sequence[float]) -> dict:
-    """``{"median", "min", "max"}`` of ``values`` (seconds)."""
-    return {"median": float(statistics.median(values)), "min": float(min(values)), "max": float(max(values))}
-
-
-def _wall(argv: list[str], cwd: Path) -> tuple[float, str]:
-    start = time.perf_counter()
-    done = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, check=False)
-    seconds = time.perf_counter() - start
-    if done.returncode != 0:
-        raise RuntimeError(f"{shlex.join(argv)}: exit {done.returncode}: {done.stderr.strip()[-300:]}")
-    return seconds, done.stdout
 
 
 def stage_seconds(stdout: str) -> dict[str, float]:
@@ -103,7 +89,7 @@ def startup(scene: str, repeats: int, cwd: Path) -> dict:
         "rollsim --version": [python, "-m", "rollsim", "--version"],
         f"rollsim describe {scene}": [python, "-m", "rollsim", "describe", scene],
     }
-    return {name: spread([_wall(argv, cwd)[0] for _ in range(repeats)]) for name, argv in commands.items()}
+    return {name: spread([timed_process(argv, cwd)[0] for _ in range(repeats)]) for name, argv in commands.items()}
 
 
 def run_as_user(scene: str, frames: Optional[int], repeats: int, workdir: Path) -> dict:
@@ -113,7 +99,7 @@ def run_as_user(scene: str, frames: Optional[int], repeats: int, workdir: Path) 
         argv = [sys.executable, "-m", "rollsim", "run", scene, "--out", str(workdir / f"run{k}")]
         if frames is not None:
             argv += ["--frames", str(frames)]
-        seconds, stdout = _wall(argv, workdir)
+        seconds, stdout = timed_process(argv, workdir)
         walls.append(seconds)
         stages.append(stage_seconds(stdout))
     names = list(stages[0])

@@ -28,16 +28,13 @@ from __future__ import annotations
 
 import json
 import shlex
-import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional, Sequence
 
-from rollsim.bench.common import machine, strict_floats, write_bytecode
+from rollsim.bench.common import machine, spread, strict_floats, timed_process, write_bytecode
 from rollsim.plumbing.text_tables import format_table
 
 REPEATS = 3
@@ -88,22 +85,11 @@ WAITS = (
 KEYS = tuple(w.key for w in WAITS)
 
 
-def rollsim_argv() -> list[str]:
-    """The ``rollsim`` command of this Python (:func:`rollsim.bench.render.rollsim_command`)."""
-    from rollsim.bench.render import rollsim_command
-
-    return rollsim_command()
-
-
 def fresh_process_seconds(args: Sequence[str], out: Optional[Path]) -> float:
     """Wall seconds of ``rollsim ARGS [--out OUT]`` as a fresh process; raises with its stderr if it fails."""
-    argv = [*rollsim_argv(), *args] + (["--out", str(out)] if out is not None else [])
-    start = time.perf_counter()
-    done = subprocess.run(argv, capture_output=True, text=True, check=False)
-    seconds = time.perf_counter() - start
-    if done.returncode != 0:
-        raise RuntimeError(f"{shlex.join(argv)}: exit {done.returncode}: {done.stderr.strip()[-300:]}")
-    return seconds
+    from rollsim.bench.render import rollsim_command
+
+    return timed_process([*rollsim_command(), *args] + (["--out", str(out)] if out is not None else []))[0]
 
 
 def render_share(workdir: Path, k: int) -> float:
@@ -151,11 +137,11 @@ def measure_once(key: str, workdir: Path, k: int) -> float:
 
 def summary(wait: Wait, values: Sequence[float]) -> dict:
     """A row's figures: every value, the median, the smallest and largest, and whether the median meets the target."""
-    median = float(statistics.median(values))
+    figures = spread(values)
+    median = figures["median"]
     met = median <= wait.target if wait.comparison == "<=" else median >= wait.target
     return {"key": wait.key, "what": wait.what, "unit": wait.unit, "target": wait.target,
-            "comparison": wait.comparison, "values": [float(v) for v in values], "median": median,
-            "min": float(min(values)), "max": float(max(values)), "met": bool(met)}
+            "comparison": wait.comparison, "values": [float(v) for v in values], **figures, "met": bool(met)}
 
 
 def chosen(only: Sequence[str] = (), everything: bool = False) -> list[Wait]:
