@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import replace
 from typing import Iterable
 
 import numpy as np
@@ -30,7 +31,7 @@ from decoder.binning import MIN_GROUPS_PER_PERIOD, profile_binning
 from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
-from decoder.region import block_means, choose_factor, detect_regions
+from decoder.region import BlockImage, block_means, choose_factor, detect_regions
 from decoder.stripe_region import StripeRegion, region_profile, stripe_region
 from decoder.pitch import grid_regression, peak_period_rows
 from decoder.timing import find_runs
@@ -74,7 +75,11 @@ FOLD_HYSTERESIS = 0.3
 # rendered and synthetic square waves (saturated cores included), 0.41 on a
 # 584-row LED at 4 full scales (rollsim bench fit-camera, seed 1, camera
 # 15), 0.72–0.95 on the pulse-length codes whose runs fit a period
-# (tests/decoder).
+# (tests/decoder). A square wave matches itself at every shift of whole
+# periods that is a whole number of rows to within half a row, or at the even
+# ones where a binned pair's rows differ (binning blurred past detection),
+# so at least half of those shifts must match. A code whose word is several
+# periods long matches only at its word's length: one shift of four.
 MAX_PERIOD_MISMATCH = 0.55
 # A square wave has one ON and one OFF run a period: its profile has one
 # prominent peak and one prominent valley a period (prominence at least
@@ -260,7 +265,7 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
     (2) compared with itself a period away: each row less the mean of the
     rows a whole number of periods before and after it (:func:`period_lags`),
     whose RMS, its noise removed, is at most :data:`MAX_PERIOD_MISMATCH` of
-    the profile's for one of those shifts.
+    the profile's for at least half of those shifts (and one).
 
     Parameters
     ----------
@@ -291,8 +296,9 @@ def folds_to_a_square_wave(values: np.ndarray, noise: np.ndarray, period_rows: f
     if int(np.count_nonzero(decided != np.roll(decided, 1))) != 2:
         return False
     noise_var = 1.5 * float(np.mean(np.asarray(noise, dtype=np.float64) ** 2))
-    return any(_period_mismatch_ratio(detrended, lag, noise_var) <= MAX_PERIOD_MISMATCH
-               for lag in period_lags(period_rows, n, binning))
+    matches = [_period_mismatch_ratio(detrended, lag, noise_var) <= MAX_PERIOD_MISMATCH
+               for lag in period_lags(period_rows, n, binning)]
+    return any(matches) and 2 * sum(matches) >= len(matches)
 
 
 def period_lags(period_rows: float, n_rows: int, binning: int = 1) -> list[int]:
@@ -365,14 +371,49 @@ def full_scale_dn(frame: np.ndarray) -> float | None:
 
 
 def frame_period_rows(image, min_edges: int = MIN_EDGES) -> tuple[float, float, int] | None:
-    """Square-wave stripe period (rows) in a frame's largest LED region."""
+    """Square-wave stripe period (rows) in a frame's largest LED region.
+
+    In a colour frame, the brightest region of the channels' mean and that of
+    each channel (:func:`channel_blocks`) are read, and the best reading
+    kept (:func:`best_reading`): a red LED on a white or bright background
+    is not the brightest part of the channels' mean, but is of its own
+    channel. Returns as :func:`profile_period_rows`.
+    """
     frame = as_frame_array(image)
     blocks = block_means(frame, choose_factor(frame.shape[:2]))
+    full_scale = full_scale_dn(frame)
+    found = _brightest_period(blocks, min_edges, full_scale)
+    if frame.ndim == 3:
+        found = best_reading([found] + [_brightest_period(channel_blocks(blocks, c), min_edges, full_scale)
+                                        for c in range(frame.shape[2])])
+    return found
+
+
+def best_reading(readings) -> tuple[float, float, int] | None:
+    """The reading of a frame to keep among several (regions, channels), None when none.
+
+    One of :data:`MIN_EDGES` edges or more before one of fewer, then the
+    smallest standard error for its period: the stripes' channel, read
+    through JPEG's chroma or a demosaicing, can place its edges worse than
+    another channel that also shows them.
+    """
+    readings = [r for r in readings if r is not None]
+    return min(readings, key=lambda r: (r[2] < MIN_EDGES, r[1] / r[0]), default=None)
+
+
+def channel_blocks(blocks: BlockImage, channel: int) -> BlockImage:
+    """One channel of a colour frame's :class:`decoder.region.BlockImage`, as a grey one (views, not copies)."""
+    return BlockImage(blocks.frame[..., channel], blocks.blocks[..., channel], blocks.factor)
+
+
+def _brightest_period(blocks: BlockImage, min_edges: int,
+                      full_scale: float | None) -> tuple[float, float, int] | None:
+    """:func:`profile_period_rows` over the largest LED region of ``blocks``, or None."""
     # The chip pitch is not known yet: the closing height for an unknown pitch.
     regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
     if not regions:
         return None
-    return profile_period_rows(row_profile(blocks, regions[0]), min_edges, full_scale_dn(frame))
+    return profile_period_rows(row_profile(blocks, regions[0]), min_edges, full_scale)
 
 
 def led_rows(values: np.ndarray, noise: np.ndarray) -> slice:
@@ -434,9 +475,14 @@ def _period_in(image, region: StripeRegion | None = None) -> tuple[float, float,
     edges) over ``region``, or over its brightest region when None; None for no square
     wave or a frame the decoder cannot use."""
     try:
-        if region is not None:
-            return profile_period_rows(region_profile(image, region), FEW_EDGES, full_scale_dn(as_frame_array(image)))
-        return frame_period_rows(image, FEW_EDGES)
+        if region is None:
+            return frame_period_rows(image, FEW_EDGES)
+        frame = as_frame_array(image)
+        # Each channel over the region's rows and columns: the region's own
+        # (the stripes' strongest) need not place their edges best.
+        channels = range(frame.shape[2]) if region.channel is not None and frame.ndim == 3 else [region.channel]
+        return best_reading([profile_period_rows(region_profile(frame, replace(region, channel=c)), FEW_EDGES,
+                                                 full_scale_dn(frame)) for c in channels])
     except FrameError:
         return None
 

@@ -261,21 +261,26 @@ def region_profile(image, region: StripeRegion) -> RowProfile:
     whose profiles share the stripes and differ by noise.
     """
     frame = as_frame_array(image)
-    values = frame[..., region.channel] if region.channel is not None and frame.ndim == 3 else frame
-    if values.ndim == 3:  # a grey region on colour frames: their mean
-        values = values.mean(axis=2)
-    block = values[region.rows].astype(np.float64)
-    weights = np.broadcast_to(region.column_weights, block.shape)
+    width = frame.shape[1]
+    # Only the weighted columns: the others add nothing, and a frame's width
+    # of float64 rows would be most of the time.
+    weighted = np.flatnonzero(region.column_weights)
+    cols = slice(int(weighted[0]), int(weighted[-1]) + 1) if weighted.size else slice(0, 0)
+    block = frame[region.rows, cols]
+    if block.ndim == 3:  # the region's channel, or for a grey region on colour frames their mean
+        block = block[..., region.channel] if region.channel is not None else block.mean(axis=2)
+    block = block.astype(np.float64)
+    weights = np.broadcast_to(region.column_weights[cols], block.shape)
     if region.block_mask is not None:
         inside = np.repeat(np.repeat(region.block_mask, region.block_rows, axis=0), region.block_cols, axis=1)
-        mask = np.zeros(block.shape, dtype=bool)
-        mask[:inside.shape[0], :inside.shape[1]] = inside[:block.shape[0], :block.shape[1]]
-        masked = np.where(mask, weights, 0.0)
+        mask = np.zeros((block.shape[0], width), dtype=bool)
+        mask[:inside.shape[0], :inside.shape[1]] = inside[:block.shape[0], :width]
+        masked = np.where(mask[:, cols], weights, 0.0)
         # A block row bridged inside the LED holds no block of its own: its
         # rows take every weighted column.
         weights = np.where(masked.sum(axis=1, keepdims=True) > 0, masked, weights)
     profile = _weighted_rows(block, weights)
-    group = (np.arange(block.shape[1]) // NOISE_GROUP_COLS) % 2 == 0
+    group = (np.arange(cols.start, cols.stop) // NOISE_GROUP_COLS) % 2 == 0  # the frame's columns, as counted
     half_a, half_b = np.where(group, weights, 0.0), np.where(group, 0.0, weights)
     if np.all(half_a.sum(axis=1) > 0) and np.all(half_b.sum(axis=1) > 0):
         difference = _weighted_rows(block, half_a) - _weighted_rows(block, half_b)

@@ -255,3 +255,48 @@ def test_a_saturated_square_wave_reads_while_stripes_within_the_clip_do_not():
     near_clip = RowProfile(0, np.where(on, 255.0, 255.0 - 0.5 * CLIPPED_DN) + rng.normal(0, 0.3, rows.size), noise)
     assert profile_period_rows(near_clip) is not None  # the depth not known: read
     assert profile_period_rows(near_clip, full_scale_dn=255.0) is None
+
+
+def _red_led_on_white(n_frames: int = 3, period_rows: float = 23.3, seed: int = 0) -> list:
+    """A red LED's stripes (R 150–250, G and B 20: its face hides the wall) on a
+    white wall (150 in every channel), the same phase in every frame (a frame
+    period of whole waveform periods: nothing moves between frames)."""
+    from scipy.ndimage import uniform_filter1d
+
+    rng = np.random.default_rng(seed)
+    rows, cols = 480, 640
+    square = np.where(np.mod(np.arange(rows) + 7.0, period_rows) < period_rows / 2, 250.0, 150.0)
+    red = uniform_filter1d(square, 5)
+    image = np.full((rows, cols, 3), 150.0)
+    image[40:440, 200:440, 0] = red[40:440, None]
+    image[40:440, 200:440, 1:] = 20.0
+    return [np.clip(np.rint(image + rng.normal(0.0, 2.0, image.shape)), 0, 255).astype(np.uint8)
+            for _ in range(n_frames)]
+
+
+def test_a_red_led_on_a_white_background_is_read_in_its_own_channel():
+    # The mean of the channels is brighter on the wall (150) than on the LED
+    # (about 80): the brightest region of that mean is the wall, of the red
+    # channel the LED (200 on average).
+    from decoder.region import block_means, choose_factor, detect_regions
+    from decoder.rowtime import channel_blocks
+
+    frames = _red_led_on_white()
+    blocks = block_means(frames[0], choose_factor(frames[0].shape[:2]))
+    brightest = detect_regions(blocks, close_rows=16.0, max_regions=1)[0]
+    assert brightest.rows.start < 40 or brightest.rows.stop > 440  # the background's rows
+    red = detect_regions(channel_blocks(blocks, 0), close_rows=16.0, max_regions=1)[0]
+    assert red.rows.start >= 36 and red.rows.stop <= 444
+    clock_hz = 2000.0  # a 1 ms period over 23.3 rows: 42.918 us a row
+    estimate, _ = estimate_row_time(frames, clock_hz)
+    assert estimate == pytest.approx(1e-3 / 23.3, rel=0.005)
+
+
+def test_the_reading_kept_has_enough_edges_then_the_least_error():
+    from decoder.rowtime import MIN_EDGES, best_reading
+
+    few, noisy, sharp = (20.0, 0.001, MIN_EDGES - 1), (20.0, 0.5, MIN_EDGES), (20.1, 0.05, MIN_EDGES + 4)
+    assert best_reading([few, noisy, sharp]) == sharp
+    assert best_reading([few, noisy]) == noisy  # enough edges first
+    assert best_reading([None, few]) == few
+    assert best_reading([None, None]) is None

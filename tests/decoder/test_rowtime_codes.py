@@ -12,7 +12,7 @@ import time
 import cv2
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from synth import profile_from_chips
 
@@ -81,9 +81,14 @@ def code_frames(seed: int, kind: str, layout: str, n: int = 3) -> list[np.ndarra
     return frames
 
 
-@settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=200, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(["pulse", "pwm"]),
        layout=st.sampled_from(["grey", "colour", "channel"]), clock_hz=st.sampled_from([1000.0, 4000.0, 8000.0]))
+# Codes whose word is four periods of a square wave with a few rows' duty
+# jitter, one ON run split by a gap of 2-3 rows or a 5-row pulse once a
+# word: found by unseeded runs of 2000 examples, and once given a row time.
+@example(seed=31534, kind="pulse", layout="colour", clock_hz=1000.0)
+@example(seed=3000791, kind="pulse", layout="grey", clock_hz=1000.0)
 def test_no_code_but_a_square_wave_gets_a_row_time(seed, kind, layout, clock_hz):
     frames = code_frames(seed, kind, layout)
     with pytest.raises(RowTimeError):
