@@ -12,9 +12,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from rollsim.fit.camera import MIN_OFF_LEVEL, Estimate, exposure_alternatives_rows, exposure_choices
+from rollsim.fit.camera import FRAMES, MIN_OFF_LEVEL, Estimate, NoiseFit, Parameters, StripeTerms, corrected, \
+    exposure_alternatives_rows, exposure_choices
 from rollsim.fit.report import alternatives_lines
-from rollsim.fit.stripes import square_wave_box
+from rollsim.fit.stripes import levels_for_whole_periods, reflected_levels, square_wave_box
 from rollsim.scene import load_scene
 
 PERIOD = 20.0
@@ -158,3 +159,48 @@ def test_the_exposure_for_an_off_level_inverts_the_box(whole, chips):
         assert found == (pytest.approx(exposure), pytest.approx(on))
     assert exposure_for_off_level(y_min, y_max, y_min + 0.01, PERIOD, whole, upper) is None  # OFF above the least
 
+
+
+@pytest.mark.parametrize("exposure", [3.7, 12.0, 19.999, 27.5, 36.0, 61.0])
+@pytest.mark.parametrize("like", [2.0, 10.0, 17.0])
+def test_stripe_terms_make_the_same_stripes_and_map_back(exposure, like):
+    on, off = 0.7, 0.05
+    terms = StripeTerms.of(exposure, on, off, PERIOD, like)
+    assert 0.0 < terms.exposure_rows <= PERIOD
+    assert terms.exposure_and_levels(PERIOD) == pytest.approx((exposure, on, off), rel=1e-12, abs=1e-12)
+    # Of the two charts (E0 and P - E0), the one nearer the frames' fit.
+    assert abs(terms.exposure_rows - like) <= abs(PERIOD - terms.exposure_rows - like) + 1e-12
+    rows = np.arange(0.0, 200.0)
+    fitted = _levels(SimpleNamespace(exposure_rows=exposure, on=on, off=off), rows, 3.0)
+    phases = np.linspace(0.0, PERIOD, 801)
+    best = min(np.max(np.abs(_levels(terms, rows, p) - fitted)) for p in phases)
+    assert best < 1e-9
+
+
+def _target(exposure_rows, on, off):
+    stripes = SimpleNamespace(exposure_rows=exposure_rows, on=on, off=off, smoothing_rows=0.8, gamma=1.0)
+    return SimpleNamespace(stripes=stripes, stripes_period_rows=PERIOD, noise_levels=np.array([]),
+                           noise_variances=np.array([]), background=None, background_noise=None, row_noise=None,
+                           column_pattern=None)
+
+
+@pytest.mark.parametrize("whole", [0, 1, 2])
+@pytest.mark.parametrize("render_reads_reflected", [False, True])
+def test_a_correction_moves_the_exposure_within_its_branch(whole, render_reads_reflected):
+    """A reflected choice of k whole periods more (E = kP + P - E0) is longer
+    where the stripes read a shorter E0: a render that reads 0.3 rows less
+    than the frames moves it 0.3 rows down, in whichever chart the render's
+    fit reads it; a render that reads the frames' stripes moves nothing."""
+    e0, on0, off0 = 6.5, 0.5, 0.45  # no negative light in any branch
+    exposure, on, off = levels_for_whole_periods(*reflected_levels(e0, on0, off0, PERIOD), PERIOD, whole)
+    p = Parameters(float(exposure), 0.8, 1.0, float(on), float(off), 1e-3, 1e-3, None, None)
+    noise = NoiseFit(1e-3, 1e-3, FRAMES, FRAMES, None)
+    target = _target(e0, on0, off0)
+    for read_rows, moved_rows in ((e0, 0.0), (e0 - 0.3, -0.3)):
+        read = (read_rows, on0, off0)
+        if render_reads_reflected:
+            read = reflected_levels(*read, PERIOD)
+        out = corrected(p, noise, target, _target(*map(float, read)))
+        assert out.exposure_rows == pytest.approx(p.exposure_rows + moved_rows, abs=1e-9)
+        if moved_rows == 0.0:
+            assert (out.on_lin, out.off_lin) == pytest.approx((p.on_lin, p.off_lin), rel=1e-9)

@@ -91,8 +91,8 @@ def _stripes(exposure_rows, on):
 
 
 def _statistics(exposure_rows, on):
-    """What :func:`corrected` reads of a measurement: the stripes, and no noise anchor."""
-    return SimpleNamespace(stripes=_stripes(exposure_rows, on), noise_levels=np.zeros(0),
+    """What :func:`corrected` reads of a measurement: the stripes (a period of 20 rows), and no noise anchor."""
+    return SimpleNamespace(stripes=_stripes(exposure_rows, on), stripes_period_rows=20.0, noise_levels=np.zeros(0),
                            noise_variances=np.zeros(0), background=None, background_noise=None,
                            row_noise=None, column_pattern=None)
 

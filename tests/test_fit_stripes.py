@@ -9,7 +9,7 @@ smoothing's derivative and left σ where it started.
 import numpy as np
 import pytest
 
-from rollsim.fit.stripes import fit_stripes, stripe_profile
+from rollsim.fit.stripes import StripeFit, fit_stripes, right_way_up, stripe_profile
 
 PERIOD = 20.0
 
@@ -75,3 +75,20 @@ def test_a_render_without_stripes_lies_far_from_frames_with_them():
     assert clipped.stripes.swing_dn(20.0) == 0.0
     assert mismatch(frames, clipped, 2.2) == np.inf
     assert np.isfinite(mismatch(frames, shown, 2.2))
+
+
+def test_a_wave_fitted_upside_down_is_turned_the_right_way_up():
+    """ON below OFF is the same wave half a period on with the levels swapped:
+    the profile is unchanged, and the fit says ON of the rows that are ON."""
+    rows = np.arange(0.0, 160.0)
+    knots = (0.0, 80.0, 159.0)
+    upside_down = StripeFit(7.3, 0.9, 1.4, 0.2, 0.6, knots, (0.18, 0.2, 0.25), (0.55, 0.6, 0.62), (3.0, 17.5),
+                            0.5, {})
+    turned = right_way_up(upside_down, PERIOD)
+    assert (turned.on, turned.off) == (0.6, 0.2) and turned.exposure_rows == upside_down.exposure_rows
+    for before, after in zip(upside_down.phases_rows, turned.phases_rows):
+        a = stripe_profile(rows, PERIOD, before, 7.3, 0.9, 1.4, upside_down.on_knots, upside_down.off_knots,
+                           np.asarray(knots))
+        b = stripe_profile(rows, PERIOD, after, 7.3, 0.9, 1.4, turned.on_knots, turned.off_knots, np.asarray(knots))
+        assert np.max(np.abs(a - b)) < 1e-9
+    assert right_way_up(turned, PERIOD) is turned

@@ -28,6 +28,7 @@ those of frames rendered with them (:func:`rollsim.fit.refine.fit_camera`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Sequence
@@ -456,6 +457,58 @@ def level_ratio(x: float | None, y: float | None) -> float:
     return x / y if x is not None and y is not None and y > 0 and x > 0 else 1.0
 
 
+@dataclass(frozen=True)
+class StripeTerms:
+    """An exposure and its linear levels as a stripe fit reports them, and where they came from.
+
+    A stripe fit reports an exposure E₀ in (0, P] (whole periods removed,
+    :func:`rollsim.fit.stripes.whole_periods_removed`) or its reflection
+    P − E₀, with the levels that make the same profile. ``whole_periods``
+    and ``reflected`` map the terms back to the exposure they stand for
+    (:meth:`exposure_and_levels`).
+    """
+
+    exposure_rows: float
+    on: float
+    off: float
+    whole_periods: int = 0
+    reflected: bool = False
+
+    @classmethod
+    def of(cls, exposure_rows: float, on: float, off: float, period_rows: float, like_rows: float) -> StripeTerms:
+        """The terms of an exposure (rows) and its levels: of E₀ and P − E₀, the one nearer ``like_rows``.
+
+        Fits of the frames and of their render, and the parameters rendered,
+        are compared in the one chart nearest the frames' fit
+        (``like_rows``): in another, a longer exposure reads as a shorter one.
+        """
+        whole = max(0, int(math.ceil(exposure_rows / period_rows - 1e-9)) - 1)
+        e0, on0, off0 = levels_for_whole_periods(exposure_rows, on, off, period_rows, -whole)
+        terms = cls(float(e0), float(on0), float(off0), whole, False)
+        if 0.0 < e0 < period_rows:
+            e1, on1, off1 = reflected_levels(float(e0), on0, off0, period_rows)
+            if abs(e1 - like_rows) < abs(e0 - like_rows):
+                terms = cls(float(e1), float(on1), float(off1), whole, True)
+        return terms
+
+    def exposure_and_levels(self, period_rows: float) -> tuple[float, float, float]:
+        """The exposure (rows) and linear ON and OFF levels the terms stand for."""
+        e, on, off = self.exposure_rows, self.on, self.off
+        tiny = 1e-6 * period_rows  # both maps divide by the exposure they start from
+        if self.reflected:  # a correction may move P − E₀ out of the period it reflects within
+            e = min(max(e, tiny), period_rows - tiny)
+            e, on, off = reflected_levels(e, on, off, period_rows)
+        e, on, off = levels_for_whole_periods(max(e, tiny), on, off, period_rows, self.whole_periods)
+        return float(e), float(on), float(off)
+
+
+def matched_terms(target: Measured, rendered: Measured) -> tuple[StripeTerms, StripeTerms]:
+    """The frames' stripe fit and their render's, in the frames' fit's chart (:meth:`StripeTerms.of`)."""
+    t, r, period = target.stripes, rendered.stripes, target.stripes_period_rows
+    mine = StripeTerms(t.exposure_rows, t.on, t.off)
+    return mine, StripeTerms.of(r.exposure_rows, r.on, r.off, period, t.exposure_rows)
+
+
 def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measured) -> Parameters:
     """One step of indirect inference: move each parameter by what separates the
     frames' statistic from the same statistic of frames rendered with ``p``.
@@ -463,11 +516,16 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
     The estimators' biases (JPEG's, sharpening's, the tone curve's and the
     clip's effect on the edges and on the noise) are then the simulator's,
     and cancel. Shape parameters move by the difference, levels by the
-    ratio. The noise moves the photon-transfer line a + b·u so that its
+    ratio. The exposure and the levels move in the stripe fit's own terms
+    (:class:`StripeTerms`: an exposure of whole periods more, or reflected,
+    reads as E₀ or P − E₀ with other levels) and are mapped back, so a
+    choice of exposure keeps its branch. The noise moves the photon-transfer line a + b·u so that its
     variance at each anchor level scales by the ratio of the two measured
     there; with one anchor the read noise (in electrons) is kept.
     """
     t, r = target.stripes, rendered.stripes
+    mine, theirs = matched_terms(target, rendered)
+    period = target.stripes_period_rows
     a, b = p.read_lin**2, p.k_lin
     scaled = []
     for anchor in noise_anchors(target, p.gamma):
@@ -491,13 +549,18 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
     # The shape estimators' biases depend on the stripes' level: compared at
     # levels far apart (a colour plane's response to the LED not yet
     # matched), they move the shape the wrong way. The levels move first.
-    shape = 1.0 / LEVEL_MATCH <= level_ratio(t.on, r.on) <= LEVEL_MATCH
+    shape = 1.0 / LEVEL_MATCH <= level_ratio(mine.on, theirs.on) <= LEVEL_MATCH
+    now = StripeTerms.of(p.exposure_rows, p.on_lin, p.off_lin, period, mine.exposure_rows)
+    moved = dataclasses.replace(
+        now, exposure_rows=now.exposure_rows + (mine.exposure_rows - theirs.exposure_rows if shape else 0.0),
+        on=now.on * level_ratio(mine.on, theirs.on), off=now.off * level_ratio(mine.off, theirs.off))
+    exposure, on, off = moved.exposure_and_levels(period)
     return Parameters(
-        exposure_rows=max(0.05, p.exposure_rows + t.exposure_rows - r.exposure_rows) if shape else p.exposure_rows,
+        exposure_rows=max(0.05, exposure),
         smoothing_rows=max(0.0, p.smoothing_rows + t.smoothing_rows - r.smoothing_rows) if shape else p.smoothing_rows,
         gamma=min(MAX_GAMMA, max(MIN_GAMMA, p.gamma + t.gamma - r.gamma)) if shape else p.gamma,
-        on_lin=min(60.0, p.on_lin * level_ratio(t.on, r.on)),
-        off_lin=p.off_lin * level_ratio(t.off, r.off),
+        on_lin=min(60.0, on),
+        off_lin=max(0.0, off),
         k_lin=b_new,
         read_lin=math.sqrt(a_new),
         row_lin=None if p.row_lin is None else p.row_lin * level_ratio(target.row_noise, rendered.row_noise),

@@ -22,7 +22,7 @@ from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, ExposureChoice, Measured, NoiseFit, \
     Parameters, anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, \
-    measure, noise_anchors
+    matched_terms, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
@@ -315,9 +315,11 @@ def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
     t, r = target.stripes, rendered.stripes
     if r.swing_dn(rendered.stripes_period_rows) < MIN_SWING_DN <= t.swing_dn(target.stripes_period_rows):
         return math.inf
+    mine, theirs = matched_terms(target, rendered)  # a render's fit may read the reflected exposure
     scale = max(1.0, t.exposure_rows)  # rows
-    total = ((t.exposure_rows - r.exposure_rows) / scale) ** 2 + ((t.smoothing_rows - r.smoothing_rows) / scale) ** 2
-    total += (t.gamma - r.gamma) ** 2 + _log_ratio(t.on, r.on) ** 2 + _log_ratio(t.off, r.off) ** 2
+    total = (((mine.exposure_rows - theirs.exposure_rows) / scale) ** 2
+             + ((t.smoothing_rows - r.smoothing_rows) / scale) ** 2)
+    total += (t.gamma - r.gamma) ** 2 + _log_ratio(mine.on, theirs.on) ** 2 + _log_ratio(mine.off, theirs.off) ** 2
     return total + 0.25 * noise_mismatch(target, rendered, gamma)
 
 

@@ -382,7 +382,21 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     fit = StripeFit(float(e), float(s), float(g), float(np.median(on)), float(np.median(off)),
                     tuple(float(k) for k in knots), tuple(float(v) for v in on), tuple(float(v) for v in off),
                     tuple(float(p % period_rows) for p in phases), rms, uncertainties, gamma is not None)
-    return whole_periods_removed(fit, period_rows)
+    return whole_periods_removed(right_way_up(fit, period_rows), period_rows)
+
+
+def right_way_up(fit: StripeFit, period_rows: float) -> StripeFit:
+    """The same profile with its ON level above its OFF level.
+
+    A wave fitted upside down (ON below OFF) is the same wave half a period
+    on, with the levels swapped (w_E(r + P/2) = 1 − w_E(r)). Fits of frames
+    and of their renders are compared level by level
+    (:func:`rollsim.fit.camera.corrected`): both must say ON of the same rows.
+    """
+    if fit.on >= fit.off:
+        return fit
+    return replace(fit, on=fit.off, off=fit.on, on_knots=fit.off_knots, off_knots=fit.on_knots,
+                   phases_rows=tuple(float((p + 0.5 * period_rows) % period_rows) for p in fit.phases_rows))
 
 
 def levels_for_whole_periods(e_rows: float, on, off, period_rows: float, whole: int) -> tuple:
