@@ -269,3 +269,33 @@ def test_colour_frames_are_read_where_their_edges_fit_a_period_best(cam):
     row_time_s, sigma_s = estimate_row_time([np.asarray(im) for im in images], camera.clock_hz)
     assert row_time_s == pytest.approx(camera.row_time_us * 1e-6, rel=0.005)
     assert abs(row_time_s - camera.row_time_us * 1e-6) < 3 * sigma_s + 1e-4 * row_time_s
+
+
+def test_a_crop_holding_an_led_s_rim_is_fitted_where_the_square_wave_holds():
+    """rollsim bench fit-camera seed 3 camera 16: a 49-column crop of a disk
+    2003 px across in 2130 rows, its rim at rows 30 and 2032. The whole band
+    read the rim's fall as stripes' rounding: 5.4 rows of exposure and a
+    smoothing of 5.8 rows, where the truth's chart holds 15.7 and 0.50
+    (correlation 0.757). The ends the square wave does not hold are left out."""
+    from rollsim.bench.fit_camera import FRAMES, HiddenCamera, hidden_scene
+    from rollsim.fit.camera import measure
+
+    cam = HiddenCamera(index=16, width_px=49, height_px=2130, row_time_us=6.698906504976649,
+                       exposure_chips=1.7171379140517007, clock_hz=2687.1145382929085,
+                       on_full_scales=1.3912742358923635, led_diameter_px=2003.1154067549433, led_x_px=24.5,
+                       led_y_px=1030.9198395328342, background_full_scales=0.5663741630923181, binning_rows=2,
+                       jpeg_quality=None, colour=False, iso=117.18014132087741, read_noise_e=4.752953452920139,
+                       srgb=True, smoothing_rows=0.5030934412623863, seed=2088872156)
+    scene = hidden_scene(cam)
+    images, _ = render_frames(scene, FRAMES)
+    m = measure([np.asarray(im, dtype=np.float64) for im in images], cam.clock_hz,
+                row_time=(cam.row_time_us * 1e-6, 0.0))
+    period = 2.0 / (cam.clock_hz * cam.row_time_us * 1e-6)
+    exposure_rows = scene.camera.exposure_us / cam.row_time_us
+    chart = min(exposure_rows % period, period - exposure_rows % period)  # E0 or P - E0
+    assert m.stripes.exposure_rows == pytest.approx(chart, rel=0.05)
+    assert m.stripes.smoothing_rows == pytest.approx(cam.smoothing_rows, abs=0.25)
+    rows = m.region.band[0]
+    rim_top, rim_bottom = cam.led_y_px - cam.led_diameter_px / 2, cam.led_y_px + cam.led_diameter_px / 2
+    assert rows.start > rim_top and rows.stop < rim_bottom
+    assert rows.stop - rows.start > 0.5 * cam.height_px

@@ -9,7 +9,8 @@ smoothing's derivative and left σ where it started.
 import numpy as np
 import pytest
 
-from rollsim.fit.stripes import StripeFit, fit_stripes, right_way_up, stripe_profile
+from rollsim.fit.stripes import StripeFit, fit_residuals, fit_stripes, right_way_up, rows_the_model_holds, \
+    stripe_profile
 
 PERIOD = 20.0
 
@@ -92,3 +93,30 @@ def test_a_wave_fitted_upside_down_is_turned_the_right_way_up():
         b = stripe_profile(rows, PERIOD, after, 7.3, 0.9, 1.4, turned.on_knots, turned.off_knots, np.asarray(knots))
         assert np.max(np.abs(a - b)) < 1e-9
     assert right_way_up(turned, PERIOD) is turned
+
+
+def test_only_the_ends_the_model_does_not_hold_are_trimmed():
+    rng = np.random.default_rng(5)
+    residuals = rng.normal(0.0, 1.0, size=(3, 400))
+    # Nothing to trim: the whole band.
+    assert rows_the_model_holds(residuals, 20.0) == slice(0, 400)
+    # A rim at each end (rows 0-29 and 370-399) ten times the noise: cut a period at a time.
+    rim = residuals.copy()
+    rim[:, :30] *= 10.0
+    rim[:, 370:] *= 10.0
+    assert rows_the_model_holds(rim, 20.0) == slice(40, 360)
+    # A misfit in the middle is not an end: kept.
+    middle = residuals.copy()
+    middle[:, 180:220] *= 10.0
+    assert rows_the_model_holds(middle, 20.0) == slice(0, 400)
+    # Trimming that would leave less than half the band: the whole band.
+    most = residuals.copy()
+    most[:, :240] *= 10.0
+    assert rows_the_model_holds(most, 20.0) == slice(0, 400)
+
+
+def test_the_residuals_of_an_exact_profile_are_nil():
+    rows = np.arange(0.0, 200.0)
+    fit = fit_stripes([_profile(rows, 6.0, 0.9, phase=p) for p in (2.0, 9.0)], rows, PERIOD)
+    residuals = fit_residuals(fit, [_profile(rows, 6.0, 0.9, phase=p) for p in (2.0, 9.0)], rows, PERIOD)
+    assert residuals.shape == (2, 200) and np.max(np.abs(residuals)) < 0.05

@@ -41,8 +41,8 @@ from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, fi
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
     photon_transfer, \
     tone_from_noise, tone_slope, unclipped
-from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, exposure_for_off_level, fit_stripes, \
-    levels_for_whole_periods, profile_extremes, reflected_levels
+from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, exposure_for_off_level, fit_residuals, fit_stripes, \
+    levels_for_whole_periods, profile_extremes, reflected_levels, rows_the_model_holds
 from rollsim.scene.model import Scene
 from rollsim.sensor.adc import full_scale_electrons
 
@@ -198,6 +198,19 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     gamma = tone_from_noise(levels[keep], variances[keep]) if start is None else None
     stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning,
                           gamma=gamma)
+    if start is None:
+        # Ends of the band the square wave does not hold (an LED's rim in a
+        # crop it fills, a halo) are left out; rendered frames are measured
+        # in the rows kept (their ``region``).
+        held = rows_the_model_holds(fit_residuals(stripes, profiles, np.arange(rows.start, rows.stop), period,
+                                                  binning), period)
+        if held != slice(0, len(profiles[0])):
+            rows = slice(rows.start + held.start, rows.start + held.stop)
+            region = dataclasses.replace(region, band=(rows, cols))
+            profiles = [p[held] for p in profiles]
+            levels, variances = level_noise_pairs(frames, rows, cols)
+            keep = unclipped(levels)
+            stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, binning=binning, gamma=gamma)
     background = bg_noise = row_noise = column = None
     if region.block is not None:
         block = region.block

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Sequence
 
 import numpy as np
 from scipy.optimize import OptimizeResult, least_squares
@@ -323,9 +324,7 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     StripeFit
     """
     rows = np.asarray(rows, dtype=np.float64)
-    data = [np.asarray(p, dtype=np.float64) for p in profiles]
-    if len(data) > MAX_FIT_FRAMES:
-        data = [data[int(i)] for i in np.linspace(0, len(data) - 1, MAX_FIT_FRAMES).round()]
+    data = fitted_profiles(profiles)
     knots = knot_rows(rows, period_rows) if start is None else np.asarray(start.knot_rows)
     nk, n = knots.size, len(data)
     target = np.concatenate(data)
@@ -383,6 +382,62 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
                     tuple(float(k) for k in knots), tuple(float(v) for v in on), tuple(float(v) for v in off),
                     tuple(float(p % period_rows) for p in phases), rms, uncertainties, gamma is not None)
     return whole_periods_removed(right_way_up(fit, period_rows), period_rows)
+
+
+def fitted_profiles(profiles: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """The profiles :func:`fit_stripes` fits: at most :data:`MAX_FIT_FRAMES`, spread over the frames, float64."""
+    data = [np.asarray(p, dtype=np.float64) for p in profiles]
+    if len(data) > MAX_FIT_FRAMES:
+        data = [data[int(i)] for i in np.linspace(0, len(data) - 1, MAX_FIT_FRAMES).round()]
+    return data
+
+
+def fit_residuals(fit: StripeFit, profiles: Sequence[np.ndarray], rows: np.ndarray, period_rows: float,
+                  binning: tuple[int, int] = (1, 0)) -> np.ndarray:
+    """The fitted profiles less the fit's model, 8-bit levels: (frames fitted, rows).
+
+    ``profiles``, ``rows``, ``period_rows`` and ``binning`` are those the fit was given.
+    """
+    rows = np.asarray(rows, dtype=np.float64)
+    knots = np.asarray(fit.knot_rows)
+    return np.array([p - stripe_profile(rows, period_rows, phase, fit.exposure_rows, fit.smoothing_rows, fit.gamma,
+                                        np.asarray(fit.on_knots), np.asarray(fit.off_knots), knots, binning)
+                     for phase, p in zip(fit.phases_rows, fitted_profiles(profiles))])
+
+
+# An end of the band whose residual (RMS over a stripe period) is this many
+# times the band's median is not the square wave's: the rim of an LED that
+# fills a crop but not its rows, a halo. It is left out and the fit redone.
+MAX_END_RESIDUAL = 3.0
+
+
+def rows_the_model_holds(residuals: np.ndarray, period_rows: float, min_periods: float = 4.0) -> slice:
+    """The rows (indices into the fitted profiles) left when each end of the band
+    is trimmed, a stripe period at a time, while its residual RMS exceeds
+    :data:`MAX_END_RESIDUAL` times the median period's.
+
+    The whole band when trimming would leave less than half of it or fewer
+    than ``min_periods`` periods: a model that holds nowhere is not mended
+    by cutting.
+    """
+    n = residuals.shape[-1]
+    size = max(1, int(np.ceil(period_rows)))
+    edges = np.arange(0, n + 1, size)
+    if edges[-1] != n:
+        edges = np.append(edges, n)
+    rms = np.array([np.sqrt(np.mean(residuals[:, a:b] ** 2)) for a, b in zip(edges[:-1], edges[1:])])
+    if rms.size < 3:
+        return slice(0, n)
+    bad = rms > MAX_END_RESIDUAL * max(float(np.median(rms)), 1e-12)
+    first, last = 0, rms.size
+    while first < last and bad[first]:
+        first += 1
+    while last > first and bad[last - 1]:
+        last -= 1
+    start, stop = int(edges[first]), int(edges[last])
+    if stop - start < max(0.5 * n, min_periods * period_rows):
+        return slice(0, n)
+    return slice(start, stop)
 
 
 def right_way_up(fit: StripeFit, period_rows: float) -> StripeFit:
