@@ -42,7 +42,7 @@ from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, li
     photon_transfer, \
     tone_from_noise, tone_slope, unclipped
 from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, exposure_for_off_level, fit_residuals, fit_stripes, \
-    levels_for_whole_periods, profile_extremes, reflected_levels, rows_the_model_holds
+    levels_for_whole_periods, profile_extremes, reflected_levels, rows_the_model_holds, whole_periods_in
 from rollsim.scene.model import Scene
 from rollsim.sensor.adc import full_scale_electrons
 
@@ -391,9 +391,7 @@ def exposure_choices(m: Measured, base: Scene) -> list[ExposureChoice]:
     every choice is).
     """
     s, period = m.stripes, m.stripes_period_rows
-    # A wave fitted upside down (ON below OFF) is the same wave half a period
-    # on, with the levels swapped (w_E(r + P/2) = 1 − w_E(r)).
-    on0, off0 = (s.on, s.off) if s.on >= s.off else (s.off, s.on)
+    on0, off0 = s.on, s.off  # ON above OFF: rollsim.fit.stripes.right_way_up
     starts = [(False, (s.exposure_rows, on0, off0))]
     if 0 < s.exposure_rows < period:
         starts.append((True, reflected_levels(s.exposure_rows, on0, off0, period)))
@@ -495,7 +493,7 @@ class StripeTerms:
         are compared in the one chart nearest the frames' fit
         (``like_rows``): in another, a longer exposure reads as a shorter one.
         """
-        whole = max(0, int(math.ceil(exposure_rows / period_rows - 1e-9)) - 1)
+        whole = whole_periods_in(exposure_rows, period_rows)
         e0, on0, off0 = levels_for_whole_periods(exposure_rows, on, off, period_rows, -whole)
         terms = cls(float(e0), float(on0), float(off0), whole, False)
         if 0.0 < e0 < period_rows:

@@ -526,16 +526,16 @@ def exposure_for_off_level(y_min: float, y_max: float, off: float, period_rows: 
     return exposure_chips * period_rows / 2.0, off + (y_max - off) / high
 
 
+def whole_periods_in(exposure_rows: float, period_rows: float) -> int:
+    """k, the whole stripe periods of E = E₀ + k·P beyond its E₀ in (0, P] (0 for E ≤ P)."""
+    return max(0, int(math.ceil(exposure_rows / period_rows - 1e-9)) - 1)
+
+
 def whole_periods_removed(fit: StripeFit, period_rows: float) -> StripeFit:
     """The same profile with the exposure brought into (0, P] (see :func:`levels_for_whole_periods`)."""
-    whole = int(np.ceil(fit.exposure_rows / period_rows - 1e-9)) - 1
-    if whole <= 0:
+    whole = whole_periods_in(fit.exposure_rows, period_rows)
+    if whole == 0:
         return fit
-    e0 = fit.exposure_rows - whole * period_rows
-    # The inverse: −whole periods from E, written with E₀'s own formula.
-    delta = np.asarray(fit.on_knots) - np.asarray(fit.off_knots)
-    delta0 = delta * e0 / fit.exposure_rows
-    off0 = np.asarray(fit.off_knots) + delta * whole * period_rows / (2.0 * fit.exposure_rows)
-    on0 = off0 + delta0
+    e0, on0, off0 = levels_for_whole_periods(fit.exposure_rows, fit.on_knots, fit.off_knots, period_rows, -whole)
     return replace(fit, exposure_rows=float(e0), on=float(np.median(on0)), off=float(np.median(off0)),
                    on_knots=tuple(float(v) for v in on0), off_knots=tuple(float(v) for v in off0))
