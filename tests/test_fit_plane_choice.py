@@ -10,7 +10,7 @@ from rollsim.bench.fit_camera import BASE_SCENE, HiddenCamera, hidden_scene
 from rollsim.fit import fit_camera
 from rollsim.fit.camera import LEVEL_MATCH, NoiseFit, Parameters, corrected
 from rollsim.fit.channel import MIN_SAMPLED_CNR, plane_shortlist, stripe_contrast_to_noise
-from rollsim.fit.refine import best_plane, exposure_precision
+from rollsim.fit.refine import best_plane, exposure_precision, measured_planes, plane_kept, shape_mismatch
 from rollsim.render import render_frames
 from rollsim.scene import load_scene
 
@@ -66,6 +66,25 @@ def test_the_plane_whose_stripes_tell_the_exposure_best_is_kept():
     assert best_plane([("red", "fails"), ("blue", "blue")], measure_plane)[0] == "blue"
     with pytest.raises(ValueError, match="no LED"):
         best_plane([("red", "fails")], measure_plane)
+    # Every readable plane is measured, the most precise first (ties in the shortlist's order).
+    both = measured_planes([("red", "red"), ("fails", "fails"), ("green", "green")], measure_plane)
+    assert [(name, m) for name, _, m in both] == [("green", fits["green"]), ("red", fits["red"])]
+
+
+def _shape(exposure_rows, smoothing_rows, period_rows=20.0):
+    stripes = SimpleNamespace(exposure_rows=exposure_rows, smoothing_rows=smoothing_rows, on=0.8, off=0.05)
+    return SimpleNamespace(stripes=stripes, stripes_period_rows=period_rows)
+
+
+def test_the_shape_mismatch_is_the_exposure_and_smoothing_relative_to_the_exposure():
+    # The same stripes: nothing. 1 row more exposure and 0.5 more smoothing at
+    # an exposure of 4 rows: (1/4)^2 + (0.5/4)^2.
+    assert shape_mismatch(_shape(4.0, 0.5), _shape(4.0, 0.5)) == 0.0
+    assert shape_mismatch(_shape(4.0, 0.5), _shape(5.0, 1.0)) == pytest.approx(0.25**2 + 0.125**2)
+    # Below a row of exposure the scale is a row (a short box is not told finer).
+    assert shape_mismatch(_shape(0.5, 0.0), _shape(1.0, 0.0)) == pytest.approx(0.25)
+    # A render read at the reflected exposure (P - E) is the same stripes.
+    assert shape_mismatch(_shape(4.0, 0.5), _shape(16.0, 0.5)) == pytest.approx(0.0, abs=1e-12)
 
 
 def test_a_saturated_red_led_is_fitted_on_its_green_plane():
@@ -84,6 +103,41 @@ def test_a_saturated_red_led_is_fitted_on_its_green_plane():
     fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []), iterations=0)
     assert fit.channel == "green"
     assert fit.estimates["exposure_us"].value == pytest.approx(hidden.camera.exposure_us, rel=0.15)
+
+
+def test_fits_whole_stripe_periods_apart_are_not_compared_by_their_shape():
+    # Exposures of 30 and 43 rows in a period of 20 (0.65 periods apart): the
+    # stripes' shape does not tell them apart, so the first (most precise)
+    # plane's fit stands, without a render.
+    def fit(channel, exposure_rows):
+        camera = SimpleNamespace(exposure_s=exposure_rows * 10e-6, row_time_s=10e-6)
+        return SimpleNamespace(channel=channel, scene=SimpleNamespace(camera=camera), period_rows=20.0)
+
+    kept, why = plane_kept([fit("red", 30.0), fit("green", 43.0)], [None, None], n_frames=6)
+    assert kept == 0
+    assert why.startswith("the fits' exposures lie 0.65 stripe periods apart")
+
+
+def test_a_short_exposure_is_fitted_where_its_renders_hold_every_planes_stripes():
+    # Seed 5 camera 8 of `rollsim bench fit-camera`: a red LED, 1.53 rows of
+    # exposure in a period of 11 rows, smoothing 0.69 rows, in a 27-column
+    # crop. Its red plane, sampled on every other row, reads 3.3 rows (more
+    # precisely than green reads 1.6), and a render of 3 rows matches it in
+    # red; in green it does not.
+    cam = HiddenCamera(index=8, width_px=27, height_px=712, row_time_us=34.1598, exposure_chips=0.27647,
+                       clock_hz=5303.01, on_full_scales=1.642, led_diameter_px=169.8, led_x_px=13.5,
+                       led_y_px=343.6, background_full_scales=0.4432, binning_rows=1, jpeg_quality=93, colour=True,
+                       iso=843.3, read_noise_e=1.99, srgb=False, smoothing_rows=0.6911, seed=1209115371)
+    hidden = hidden_scene(cam)
+    images, _ = render_frames(hidden, 6)
+    frames = [np.asarray(im) for im in images]
+    lines = []
+    fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []), progress=lines.append)
+    assert any(line.startswith("exposure") and "(direct, red)" in line for line in lines)
+    assert fit.channel == "green"
+    assert any(note.startswith("Fitted in the green plane, of the fits in red and green: rendered and read in the "
+                               "other plane") for note in fit.notes)
+    assert fit.estimates["exposure_us"].value == pytest.approx(hidden.camera.exposure_us, rel=0.10)
 
 
 def _stripes(exposure_rows, on):

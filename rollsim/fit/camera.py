@@ -468,6 +468,13 @@ def level_ratio(x: float | None, y: float | None) -> float:
     return x / y if x is not None and y is not None and y > 0 and x > 0 else 1.0
 
 
+def levels_match(target: Measured, rendered: Measured) -> bool:
+    """Whether a render's stripes show the frames' ON level within :data:`LEVEL_MATCH`,
+    as :func:`matched_terms` reads both: only then are their shapes compared."""
+    mine, theirs = matched_terms(target, rendered)
+    return 1.0 / LEVEL_MATCH <= level_ratio(mine.on, theirs.on) <= LEVEL_MATCH
+
+
 @dataclass(frozen=True)
 class StripeTerms:
     """An exposure and its linear levels as a stripe fit reports them, and where they came from.
@@ -560,7 +567,7 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
     # The shape estimators' biases depend on the stripes' level: compared at
     # levels far apart (a colour plane's response to the LED not yet
     # matched), they move the shape the wrong way. The levels move first.
-    shape = 1.0 / LEVEL_MATCH <= level_ratio(mine.on, theirs.on) <= LEVEL_MATCH
+    shape = levels_match(target, rendered)
     now = StripeTerms.of(p.exposure_rows, p.on_lin, p.off_lin, period, mine.exposure_rows)
     moved = dataclasses.replace(
         now, exposure_rows=now.exposure_rows + (mine.exposure_rows - theirs.exposure_rows if shape else 0.0),

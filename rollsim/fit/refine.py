@@ -22,7 +22,7 @@ from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, ExposureChoice, Measured, NoiseFit, \
     Parameters, anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, \
-    matched_terms, measure, noise_anchors
+    levels_match, matched_terms, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
@@ -94,9 +94,10 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     frames : sequence of ndarray
         At least two 8-bit frames of one camera, consecutive, grey (H, W) or
         RGB (H, W, 3), of an LED sending ON and OFF chips alternately at
-        ``clock_hz``. Colour frames are fitted in the colour plane whose
-        stripes tell the exposure most precisely (:func:`best_plane` of
-        :func:`rollsim.fit.channel.plane_shortlist`), and the fit says which.
+        ``clock_hz``. Colour frames are fitted in each readable plane of
+        :func:`rollsim.fit.channel.plane_shortlist` (:func:`measured_planes`),
+        and the fit whose render lies nearer the other plane's stripes is
+        kept (:func:`plane_kept`); the fit says which plane, and why.
     clock_hz : float
         The chip rate, Hz.
     base : Scene
@@ -147,27 +148,95 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         shape = shape[:2]
         say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (colour); "
             "fitting the stripes and the noise in each colour plane")
-        channel, frames, target = best_plane(plane_shortlist(frames, 2.0 / (clock_hz * row_time[0])),
-                                             lambda planes: measure(planes, clock_hz, row_time=row_time,
-                                                                    stripes_at=stripes_at, binning=binning))
+        candidates = measured_planes(plane_shortlist(frames, 2.0 / (clock_hz * row_time[0])),
+                                     lambda planes: measure(planes, clock_hz, row_time=row_time,
+                                                            stripes_at=stripes_at, binning=binning))
     else:
-        channel, frames = "grey", as_fitted(frames, "grey")
-        binning = detect_binning(frames)
+        grey = as_fitted(frames, "grey")
+        binning = detect_binning(grey)
         say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (grey); "
             "fitting the stripes and the noise")
-        target = measure(frames, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning)
-    say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct); refining by rendering, {iterations} rounds")
-    video = {"recording": recording, "frame_rate_hz": frame_rate_hz}
-    direct_params, noise = direct(target, base)
+        candidates = [("grey", grey, measure(grey, clock_hz, row_time=row_time, stripes_at=stripes_at,
+                                             binning=binning))]
+    setting = Refinement(base, shape, clock_hz, len(frames), iterations, say,
+                         {"recording": recording, "frame_rate_hz": frame_rate_hz})
+    fits = [refined(setting, candidates[0][0], candidates[0][2])]
+    for channel, _, target in candidates[1:]:
+        try:
+            fits.append(refined(setting, channel, target))
+        except ValueError as exc:  # the most precise plane's fit stands alone
+            say(f"no fit in {channel}: {exc}")
+    if len(fits) == 1:
+        return fits[0]
+    kept, why = plane_kept(fits, [next(t for c, _, t in candidates if c == fit.channel) for fit in fits], len(frames))
+    say(f"kept the fit in {fits[kept].channel} (of {' and '.join(fit.channel for fit in fits)}): {why}")
+    fits[kept].notes.append(f"Fitted in the {fits[kept].channel} plane, of the fits in "
+                            f"{' and '.join(fit.channel for fit in fits)}: {why}.")
+    return fits[kept]
+
+
+def plane_kept(fits: Sequence[CameraFit], targets: Sequence[Measured], n_frames: int) -> tuple[int, str]:
+    """Which of two colour planes' fits to keep (0: the first, the most precise), and why.
+
+    Each plane's stripe fit can be precise and wrong: a red plane sampled on
+    every other row does not tell 1.5 rows of exposure from 3, and a render
+    of either matches it there. The exposure is one for every plane, so each
+    fit's scene is rendered and read in the other plane (``targets``: the
+    frames' statistics in each fit's plane), and the fit whose render lies
+    nearer the other plane's stripes in exposure is kept. The stripes' shape
+    tells the exposure only within a stripe period, so fits an exposure
+    half a period or more apart (whole periods, chosen by the levels) are
+    not compared, nor are renders whose ON level in the other plane is not
+    the frames' within :data:`rollsim.fit.camera.LEVEL_MATCH` (the
+    estimators' biases depend on the level).
+    """
+    first, second = fits
+    rows_apart = abs(first.scene.camera.exposure_s - second.scene.camera.exposure_s) / first.scene.camera.row_time_s
+    if rows_apart >= first.period_rows / 2:
+        return 0, (f"the fits' exposures lie {rows_apart / first.period_rows:.2f} stripe periods apart, "
+                   f"which the stripes' shape does not tell; the {first.channel} plane's is the more precise")
+    first_across = exposure_mismatch_in(first.scene, n_frames, second.channel, targets[1])
+    second_across = exposure_mismatch_in(second.scene, n_frames, first.channel, targets[0])
+    if first_across is None or second_across is None:
+        return 0, (f"a render's levels in the other plane are not the frames'; the {first.channel} plane's "
+                   "exposure is the more precise")
+    kept = 1 if first_across > second_across else 0
+    near, far = sorted((first_across, second_across))
+    return kept, f"rendered and read in the other plane, its exposure is the nearer (mismatch {near:.3g} against {far:.3g})"
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """What every plane's refinement shares: the base scene, the frames' shape (rows, columns),
+    the chip rate (Hz), the number of frames, the rounds, the progress callback and the
+    video settings (:func:`rollsim.fit.fitted_scene.fitted_scene`'s ``recording`` and ``frame_rate_hz``)."""
+
+    base: Scene
+    shape: tuple
+    clock_hz: float
+    n_frames: int
+    iterations: int
+    say: Callable[[str], None]
+    video: dict
+
+
+def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
+    """The fit of the frames' statistics ``target`` (in ``channel``), refined by rendering
+    (:func:`fit_camera`'s rounds)."""
+    say = setting.say
+    say(f"exposure {target.stripes.exposure_rows:.2f} rows (direct, {channel}); "
+        f"refining by rendering, {setting.iterations} rounds")
+    direct_params, noise = direct(target, setting.base)
 
     def rendered_trial(p: Parameters) -> tuple:
         """(mismatch, parameters, scene, notes, the rendered frames' statistics) of ``p``."""
         trial_notes: list[str] = []
-        trial_scene = fitted_scene(base, shape, clock_hz, target, p, trial_notes, plane=channel, **video)
-        trial_rendered = measure_rendered(trial_scene, len(frames), channel, target)
+        trial_scene = fitted_scene(setting.base, setting.shape, setting.clock_hz, target, p, trial_notes,
+                                   plane=channel, **setting.video)
+        trial_rendered = measure_rendered(trial_scene, setting.n_frames, channel, target)
         return mismatch(target, trial_rendered, p.gamma), p, trial_scene, trial_notes, trial_rendered
 
-    choices = exposure_choices(target, base)
+    choices = exposure_choices(target, setting.base)
     trials = [rendered_trial(with_exposure(direct_params, c)) for c in choices[:EXPOSURE_RENDERS]]
     kept = rendered_choice([t[0] for t in trials])
     choices = [choices[kept]] + choices[:kept] + choices[kept + 1:]
@@ -175,11 +244,11 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
                                                             if len(trials) > 1 else ", the one the stripes allow"))
     best = trials[kept]
     score, params, scene, notes, rendered = best
-    for k in range(iterations):
+    for k in range(setting.iterations):
         params = corrected(params, noise, target, rendered)
         score, params, scene, notes, rendered = rendered_trial(params)
-        say(f"round {k + 1} of {iterations}: exposure {scene.camera.exposure_us:.1f} us, ISO {scene.camera.iso:.0f} "
-            f"(mismatch {score:.3g})")
+        say(f"round {k + 1} of {setting.iterations}: exposure {scene.camera.exposure_us:.1f} us, "
+            f"ISO {scene.camera.iso:.0f} (mismatch {score:.3g})")
         if score < best[0]:
             best = score, params, scene, notes, rendered
     _, params, scene, notes, rendered = best
@@ -194,7 +263,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             break
         params, scene, notes, rendered = trial, trial_scene, trial_notes, trial_rendered
         say(f"noise matched: ISO {scene.camera.iso:.0f}")
-    return CameraFit(estimates(target, params, noise, scene, base, choices), scene, target, notes, channel)
+    return CameraFit(estimates(target, params, noise, scene, setting.base, choices), scene, target, notes, channel)
 
 
 def with_exposure(p: Parameters, choice: ExposureChoice) -> Parameters:
@@ -228,10 +297,10 @@ def exposure_precision(m: Measured) -> float:
     return sd / s.exposure_rows
 
 
-def best_plane(shortlist: Sequence[tuple[str, list[np.ndarray]]],
-               measure_plane: Callable[[list[np.ndarray]], Measured]) -> tuple[str, list[np.ndarray], Measured]:
-    """The colour plane whose stripe fit tells the exposure most precisely
-    (:func:`exposure_precision`), its frames and their statistics.
+def measured_planes(shortlist: Sequence[tuple[str, list[np.ndarray]]],
+                    measure_plane: Callable[[list[np.ndarray]], Measured]) -> list[tuple[str, list[np.ndarray], Measured]]:
+    """Each colour plane of ``shortlist`` the fit can read, with its frames and statistics,
+    the one whose stripe fit tells the exposure most precisely (:func:`exposure_precision`) first.
 
     Its uncertainty grows both with faint stripes and with a model that
     does not hold them (a demosaiced plane's edges): the criterion a
@@ -239,21 +308,25 @@ def best_plane(shortlist: Sequence[tuple[str, list[np.ndarray]]],
     LED in it) is passed over; the last such error is raised when every
     plane fails.
     """
-    best: tuple[float, str, list[np.ndarray], Measured] | None = None
+    readable: list[tuple[float, int, str, list[np.ndarray], Measured]] = []
     error: ValueError | None = None
-    for name, planes in shortlist:
+    for order, (name, planes) in enumerate(shortlist):
         try:
             m = measure_plane(planes)
         except ValueError as exc:
             error = exc
             continue
-        precision = exposure_precision(m)
-        if best is None or precision < best[0]:
-            best = (precision, name, planes, m)
-    if best is None:
+        readable.append((exposure_precision(m), order, name, planes, m))
+    if not readable:
         assert error is not None  # the shortlist holds the best plane at least
         raise error
-    return best[1], best[2], best[3]
+    return [(name, planes, m) for _, _, name, planes, m in sorted(readable, key=lambda r: r[:2])]
+
+
+def best_plane(shortlist: Sequence[tuple[str, list[np.ndarray]]],
+               measure_plane: Callable[[list[np.ndarray]], Measured]) -> tuple[str, list[np.ndarray], Measured]:
+    """The first of :func:`measured_planes`: the plane whose stripe fit tells the exposure most precisely."""
+    return measured_planes(shortlist, measure_plane)[0]
 
 
 def measure_rendered(scene: Scene, n_frames: int, channel: str, target: Measured) -> Measured:
@@ -265,6 +338,20 @@ def measure_rendered(scene: Scene, n_frames: int, channel: str, target: Measured
     images, _ = render_frames(one_gop(scene, n_frames), n_frames)
     return measure(as_fitted(images, channel), scene.link.clock_hz, row_time=(scene.camera.row_time_s, 0.0),
                    region=target.region, start=target.stripes, binning=(scene.camera.binning_rows, 0))
+
+
+def exposure_mismatch_in(scene: Scene, n_frames: int, channel: str, target: Measured) -> float | None:
+    """The exposure term of :func:`shape_mismatch` between the frames (``target``: their
+    statistics in ``channel``) and frames rendered from ``scene``, read in the same plane;
+    None where the render's levels there are not the frames' (:func:`rollsim.fit.camera.levels_match`)
+    or its stripes cannot be read."""
+    try:
+        rendered = measure_rendered(scene, n_frames, channel, target)
+    except ValueError:
+        return None
+    if not levels_match(target, rendered):
+        return None
+    return exposure_mismatch(target, rendered)
 
 
 def one_gop(scene: Scene, n_frames: int) -> Scene:
@@ -316,11 +403,24 @@ def mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
     if r.swing_dn(rendered.stripes_period_rows) < MIN_SWING_DN <= t.swing_dn(target.stripes_period_rows):
         return math.inf
     mine, theirs = matched_terms(target, rendered)  # a render's fit may read the reflected exposure
-    scale = max(1.0, t.exposure_rows)  # rows
-    total = (((mine.exposure_rows - theirs.exposure_rows) / scale) ** 2
-             + ((t.smoothing_rows - r.smoothing_rows) / scale) ** 2)
+    total = shape_mismatch(target, rendered)
     total += (t.gamma - r.gamma) ** 2 + _log_ratio(mine.on, theirs.on) ** 2 + _log_ratio(mine.off, theirs.off) ** 2
     return total + 0.25 * noise_mismatch(target, rendered, gamma)
+
+
+def shape_mismatch(target: Measured, rendered: Measured) -> float:
+    """The stripes' shape terms of :func:`mismatch`: :func:`exposure_mismatch` and the squared
+    difference of the smoothing relative to the frames' exposure (rows, at least one)."""
+    scale = max(1.0, target.stripes.exposure_rows)  # rows
+    return exposure_mismatch(target, rendered) + ((target.stripes.smoothing_rows - rendered.stripes.smoothing_rows)
+                                                  / scale) ** 2
+
+
+def exposure_mismatch(target: Measured, rendered: Measured) -> float:
+    """The squared difference of the exposure, as :func:`rollsim.fit.camera.matched_terms` reads
+    it (whole periods and the reflection set aside), relative to the frames' (rows, at least one)."""
+    mine, theirs = matched_terms(target, rendered)  # a render's fit may read the reflected exposure
+    return ((mine.exposure_rows - theirs.exposure_rows) / max(1.0, target.stripes.exposure_rows)) ** 2
 
 
 def _log_ratio(x: float | None, y: float | None) -> float:
