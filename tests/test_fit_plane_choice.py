@@ -10,7 +10,7 @@ from rollsim.bench.fit_camera import BASE_SCENE, HiddenCamera, hidden_scene
 from rollsim.fit import fit_camera
 from rollsim.fit.camera import LEVEL_MATCH, NoiseFit, Parameters, corrected
 from rollsim.fit.channel import MIN_SAMPLED_CNR, plane_shortlist, stripe_contrast_to_noise
-from rollsim.fit.refine import best_plane, exposure_precision, measured_planes, plane_kept, shape_mismatch
+from rollsim.fit.refine import exposure_precision, measured_planes, plane_kept, shape_mismatch
 from rollsim.render import render_frames
 from rollsim.scene import load_scene
 
@@ -60,12 +60,12 @@ def test_the_plane_whose_stripes_tell_the_exposure_best_is_kept():
     # uncertainty) tells nothing and is never kept.
     assert exposure_precision(fits["blue"]) == math.inf
     assert exposure_precision(_measured(2.0, math.nan)) == math.inf
-    name, planes, m = best_plane([("red", "red"), ("green", "green"), ("blue", "blue")], measure_plane)
+    name, planes, m = measured_planes([("red", "red"), ("green", "green"), ("blue", "blue")], measure_plane)[0]
     assert (name, planes, m) == ("green", "green", fits["green"])
     # A plane the fit cannot read is passed over; when none can be, the error is the fit's.
-    assert best_plane([("red", "fails"), ("blue", "blue")], measure_plane)[0] == "blue"
+    assert [name for name, _, _ in measured_planes([("red", "fails"), ("blue", "blue")], measure_plane)] == ["blue"]
     with pytest.raises(ValueError, match="no LED"):
-        best_plane([("red", "fails")], measure_plane)
+        measured_planes([("red", "fails")], measure_plane)
     # Every readable plane is measured, the most precise first (ties in the shortlist's order).
     both = measured_planes([("red", "red"), ("fails", "fails"), ("green", "green")], measure_plane)
     assert [(name, m) for name, _, m in both] == [("green", fits["green"]), ("red", fits["red"])]

@@ -7,9 +7,9 @@ model (one box, one Gaussian) does not hold; the green plane has twice the
 samples. So the stripes' contrast-to-noise ratio (the amplitude of the row
 profile's component at the stripe frequency over the temporal noise of
 that profile, from frame differences) names one candidate, the green
-plane is the other (:func:`plane_shortlist`), and the fit keeps the one
-whose stripe fit tells the exposure most precisely
-(:func:`rollsim.fit.refine.best_plane`).
+plane is the other (:func:`plane_shortlist`); the fit is made in both,
+and the one whose render, read in the other plane, lies nearer its
+exposure is kept (:func:`rollsim.fit.refine.plane_kept`).
 Luminance is not a candidate: it mixes channels that clip at different
 levels, which no single clip and tone curve reproduce.
 """

@@ -40,6 +40,10 @@ NOISE_ROUNDS = 2
 EXPOSURE_RENDERS = 3
 RENDERED_MARGIN = 4.0
 RENDERED_GAIN = 0.1
+# How far (in sigmas of the plane's stripe fit) the most precise plane's fit,
+# rendered, must miss the other plane's exposure before that plane's fit
+# can replace it (:func:`plane_kept`).
+PLANE_SIGMAS = 3.0
 # A stripe swing under this (8-bit levels: half a level) shows no stripes in
 # 8-bit frames (:func:`mismatch`).
 MIN_SWING_DN = 0.5
@@ -182,8 +186,10 @@ def plane_kept(fits: Sequence[CameraFit], targets: Sequence[Measured], n_frames:
     every other row does not tell 1.5 rows of exposure from 3, and a render
     of either matches it there. The exposure is one for every plane, so each
     fit's scene is rendered and read in the other plane (``targets``: the
-    frames' statistics in each fit's plane), and the fit whose render lies
-    nearer the other plane's stripes in exposure is kept. The stripes' shape
+    frames' statistics in each fit's plane), and the second fit replaces the
+    first where its render lies nearer the first plane's exposure than the
+    first's lies to the second plane's, and the first's misses by more than
+    :data:`PLANE_SIGMAS` sigmas of the second plane's stripe fit. The stripes' shape
     tells the exposure only within a stripe period, so fits an exposure
     half a period or more apart (whole periods, chosen by the levels) are
     not compared, nor are renders whose ON level in the other plane is not
@@ -200,9 +206,17 @@ def plane_kept(fits: Sequence[CameraFit], targets: Sequence[Measured], n_frames:
     if first_across is None or second_across is None:
         return 0, (f"a render's levels in the other plane are not the frames'; the {first.channel} plane's "
                    "exposure is the more precise")
-    kept = 1 if first_across > second_across else 0
-    near, far = sorted((first_across, second_across))
-    return kept, f"rendered and read in the other plane, its exposure is the nearer (mismatch {near:.3g} against {far:.3g})"
+    # A render's exposure, read in a plane, differs from the frames' by both
+    # readings' errors: the other plane's stripe fit's sigma, twice over.
+    sd = exposure_precision(targets[1]) * targets[1].stripes.exposure_rows / max(1.0, targets[1].stripes.exposure_rows)
+    noise = 2.0 * (PLANE_SIGMAS * sd) ** 2
+    if not first_across > max(noise, second_across):
+        return 0, (f"rendered and read in the other plane, its exposure is within {PLANE_SIGMAS:g} sigmas or the "
+                   f"nearer (mismatch {first_across:.3g} against {second_across:.3g} for the {second.channel} "
+                   f"plane's fit); the {first.channel} plane's exposure is the more precise")
+    return 1, (f"rendered and read in the other plane, its exposure is the nearer, and the {first.channel} plane's "
+               f"fit misses it by more than {PLANE_SIGMAS:g} sigmas (mismatch {second_across:.3g} against "
+               f"{first_across:.3g})")
 
 
 @dataclass(frozen=True)
@@ -321,12 +335,6 @@ def measured_planes(shortlist: Sequence[tuple[str, list[np.ndarray]]],
         assert error is not None  # the shortlist holds the best plane at least
         raise error
     return [(name, planes, m) for _, _, name, planes, m in sorted(readable, key=lambda r: r[:2])]
-
-
-def best_plane(shortlist: Sequence[tuple[str, list[np.ndarray]]],
-               measure_plane: Callable[[list[np.ndarray]], Measured]) -> tuple[str, list[np.ndarray], Measured]:
-    """The first of :func:`measured_planes`: the plane whose stripe fit tells the exposure most precisely."""
-    return measured_planes(shortlist, measure_plane)[0]
 
 
 def measure_rendered(scene: Scene, n_frames: int, channel: str, target: Measured) -> Measured:
