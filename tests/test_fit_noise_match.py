@@ -81,3 +81,15 @@ def _parameters(fit):
                       smoothing_rows=est["isp_smoothing_rows"].value, gamma=est["tone_gamma"].value,
                       on_lin=est["on_level"].value, off_lin=est["off_level"].value, k_lin=k_lin,
                       read_lin=est["read_noise_e"].value * k_lin, row_lin=None, col_lin=None)
+
+
+def test_a_smoothing_wider_than_the_scene_model_takes_is_rendered_at_its_bound(frames_and_fit):
+    # A plane whose stripes barely show can fit a Gaussian of 67 rows (the
+    # stripe fit allows up to a period); the scene renders the widest the
+    # ISP stage takes rather than refuse the fit.
+    from rollsim.effects.isp_smoothing import MAX_SIGMA_PX
+
+    hidden, frames, fit = frames_and_fit
+    p = dataclasses.replace(_parameters(fit), smoothing_rows=67.36)
+    scene = fitted_scene(load_scene(BASE, []), frames[0].shape, hidden.link.clock_hz, fit.measured, p, [])
+    assert scene.effects.isp_smoothing.sigma_rows_px == MAX_SIGMA_PX

@@ -16,12 +16,16 @@ from rollsim.effects.base import EffectParams, isp_effect
 from rollsim.isp import smooth
 
 
+# The widest Gaussian the stage takes, px (an ISP's denoiser spans a few rows).
+MAX_SIGMA_PX = 50.0
+
+
 class IspSmoothing(EffectParams):
     """Gaussian smoothing of the 8-bit image: ``sigma_rows_px`` (px, [0, 50],
     default 1) across rows, ``sigma_cols_px`` (px, [0, 50], default 0) along them."""
 
-    sigma_rows_px: float = Field(1.0, ge=0, le=50)
-    sigma_cols_px: float = Field(0.0, ge=0, le=50)
+    sigma_rows_px: float = Field(1.0, ge=0, le=MAX_SIGMA_PX)
+    sigma_cols_px: float = Field(0.0, ge=0, le=MAX_SIGMA_PX)
 
 
 def apply(image: np.ndarray, params: IspSmoothing) -> np.ndarray:

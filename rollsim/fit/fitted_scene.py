@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+from rollsim.effects.isp_smoothing import MAX_SIGMA_PX
 from rollsim.fit.camera import NOT_IDENTIFIED, Estimate, Measured, Parameters, gain_per_full_scale
 from rollsim.fit.channel import COLOUR_PLANES
 from rollsim.fit.noise import linear_level
@@ -97,7 +98,9 @@ def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, 
     if tone is not None:
         effects["tone_curve"] = tone
     if smoothing > 0:
-        effects["isp_smoothing"] = {"sigma_rows_px": round(smoothing, 4)}
+        # The scene model's bound: a plane whose stripes barely show can fit a
+        # Gaussian wider than any ISP's (the stripe fit allows up to a period).
+        effects["isp_smoothing"] = {"sigma_rows_px": round(min(smoothing, MAX_SIGMA_PX), 4)}
     read_e = p.read_lin / p.k_lin
     # The scene model's bound: a gain fitted near zero (frames whose codec
     # took the temporal noise away) would put these in the millions of electrons.

@@ -18,6 +18,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from rollsim.errors import SceneError
 from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, ExposureChoice, Measured, NoiseFit, \
@@ -168,7 +169,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     for channel, _, target in candidates[1:]:
         try:
             fits.append(refined(setting, channel, target))
-        except ValueError as exc:  # the most precise plane's fit stands alone
+        except (ValueError, SceneError) as exc:  # the most precise plane's fit stands alone
             say(f"no fit in {channel}: {exc}")
     if len(fits) == 1:
         return fits[0]
