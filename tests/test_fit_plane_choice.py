@@ -113,7 +113,7 @@ def test_fits_whole_stripe_periods_apart_are_not_compared_by_their_shape():
         camera = SimpleNamespace(exposure_s=exposure_rows * 10e-6, row_time_s=10e-6)
         return SimpleNamespace(channel=channel, scene=SimpleNamespace(camera=camera), period_rows=20.0)
 
-    kept, why = plane_kept([fit("red", 30.0), fit("green", 43.0)], [None, None], n_frames=6)
+    kept, why = plane_kept([fit("red", 30.0), fit("green", 43.0)], n_frames=6)
     assert kept == 0
     assert why.startswith("the fits' exposures lie 0.65 stripe periods apart")
 

@@ -173,21 +173,21 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             say(f"no fit in {channel}: {exc}")
     if len(fits) == 1:
         return fits[0]
-    kept, why = plane_kept(fits, [next(t for c, _, t in candidates if c == fit.channel) for fit in fits], len(frames))
+    kept, why = plane_kept(fits, len(frames))
     say(f"kept the fit in {fits[kept].channel} (of {' and '.join(fit.channel for fit in fits)}): {why}")
     fits[kept].notes.append(f"Fitted in the {fits[kept].channel} plane, of the fits in "
                             f"{' and '.join(fit.channel for fit in fits)}: {why}.")
     return fits[kept]
 
 
-def plane_kept(fits: Sequence[CameraFit], targets: Sequence[Measured], n_frames: int) -> tuple[int, str]:
+def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
     """Which of two colour planes' fits to keep (0: the first, the most precise), and why.
 
     Each plane's stripe fit can be precise and wrong: a red plane sampled on
     every other row does not tell 1.5 rows of exposure from 3, and a render
     of either matches it there. The exposure is one for every plane, so each
-    fit's scene is rendered and read in the other plane (``targets``: the
-    frames' statistics in each fit's plane), and the second fit replaces the
+    fit's scene is rendered and read in the other plane (where the frames'
+    statistics are the other fit's ``measured``), and the second fit replaces the
     first where its render lies nearer the first plane's exposure than the
     first's lies to the second plane's, and the first's misses by more than
     :data:`PLANE_SIGMAS` sigmas of the second plane's stripe fit. The stripes' shape
@@ -202,14 +202,15 @@ def plane_kept(fits: Sequence[CameraFit], targets: Sequence[Measured], n_frames:
     if rows_apart >= first.period_rows / 2:
         return 0, (f"the fits' exposures lie {rows_apart / first.period_rows:.2f} stripe periods apart, "
                    f"which the stripes' shape does not tell; the {first.channel} plane's is the more precise")
-    first_across = exposure_mismatch_in(first.scene, n_frames, second.channel, targets[1])
-    second_across = exposure_mismatch_in(second.scene, n_frames, first.channel, targets[0])
+    first_across = exposure_mismatch_in(first.scene, n_frames, second.channel, second.measured)
+    second_across = exposure_mismatch_in(second.scene, n_frames, first.channel, first.measured)
     if first_across is None or second_across is None:
         return 0, (f"a render's levels in the other plane are not the frames'; the {first.channel} plane's "
                    "exposure is the more precise")
     # A render's exposure, read in a plane, differs from the frames' by both
     # readings' errors: the other plane's stripe fit's sigma, twice over.
-    sd = exposure_precision(targets[1]) * targets[1].stripes.exposure_rows / max(1.0, targets[1].stripes.exposure_rows)
+    other = second.measured.stripes
+    sd = exposure_precision(second.measured) * other.exposure_rows / max(1.0, other.exposure_rows)
     noise = 2.0 * (PLANE_SIGMAS * sd) ** 2
     if not first_across > max(noise, second_across):
         return 0, (f"rendered and read in the other plane, its exposure is within {PLANE_SIGMAS:g} sigmas or the "
