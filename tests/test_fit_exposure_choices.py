@@ -204,3 +204,67 @@ def test_a_correction_moves_the_exposure_within_its_branch(whole, render_reads_r
         assert out.exposure_rows == pytest.approx(p.exposure_rows + moved_rows, abs=1e-9)
         if moved_rows == 0.0:
             assert (out.on_lin, out.off_lin) == pytest.approx((p.on_lin, p.off_lin), rel=1e-9)
+
+
+def test_levels_out_of_every_choices_reach_leave_the_fewest_whole_periods_first():
+    # A saturated LED's stripe fit near the clip: ON 1.02, OFF 0.98 (E = 12 rows of P = 20).
+    # Each period more lowers the OFF level by 0.04 * 20 / 24 = 1/30; four more still leave it at
+    # 0.85, far above the black background's face. The levels point past every choice and tell
+    # nothing of the whole periods: the stripes' own exposure comes first, not the most periods.
+    from rollsim.fit.camera import off_step_per_period
+
+    base = load_scene("paper-geometric", [])
+    assert off_step_per_period(12.0, 1.02, 0.98, PERIOD) == pytest.approx(1.0 / 30.0)
+    choices = exposure_choices(_measured(12.0, 1.02, 0.98, background=0.0), base)
+    assert (choices[0].whole_periods, choices[0].reflected) == (0, False)
+    assert choices[0].exposure_rows == pytest.approx(12.0)
+    ks = [c.whole_periods for c in choices]
+    assert ks == sorted(ks)
+    # Within reach (a dark OFF level a period's step from the face), the OFF level alone orders them.
+    near = exposure_choices(_measured(12.0, 0.9, 0.5, background=0.0), base)
+    assert near[0].whole_periods > 0
+
+
+def _refined(exposure_rows, on, off):
+    return Parameters(exposure_rows=exposure_rows, smoothing_rows=0.0, gamma=1.0, on_lin=on, off_lin=off,
+                      k_lin=1e-4, read_lin=1e-3, row_lin=None, col_lin=None)
+
+
+def test_refined_levels_move_the_fit_to_the_branch_whose_off_level_is_the_faces():
+    # The truth: P = 20 rows, E = 17, ON 1, OFF 0 (a dark face, a black background). The fit was
+    # refined in the reflected branch, E = 3, with the levels that make the same stripes there
+    # (OFF 7/17 = 0.41, far above the face). Mapped to every branch, they put OFF = 0 at 17.
+    from rollsim.fit.camera import branches_by_refined_levels
+
+    base = load_scene("paper-geometric", [])
+    e, on, off = reflected_levels(17.0, 1.0, 0.0, PERIOD)
+    assert e == pytest.approx(3.0) and off > 0.3
+    ranked = branches_by_refined_levels(_refined(float(e), float(on), float(off)), _measured(3.0, on, off, 0.0), base)
+    assert ranked is not None
+    assert ranked[0].exposure_rows == pytest.approx(17.0)
+    assert (ranked[0].on, ranked[0].off) == (pytest.approx(1.0), pytest.approx(0.0, abs=1e-12))
+    # Refined in the right branch already: nothing to move.
+    assert branches_by_refined_levels(_refined(17.0, 1.0, 0.0), _measured(3.0, on, off, 0.0), base) is None
+    # Refined a whole period too long (37 rows, OFF -0.56): the branch at 17 rows holds OFF 0.02.
+    e2, on2, off2 = levels_for_whole_periods(17.0, 1.0, 0.02, PERIOD, 1)
+    ranked = branches_by_refined_levels(_refined(float(e2), float(on2), float(off2)), _measured(3.0, on, off, 0.0),
+                                        base)
+    assert ranked is not None and ranked[0].exposure_rows == pytest.approx(17.0)
+
+
+def test_refined_levels_out_of_reach_or_unmeasured_face_keep_the_branch():
+    from rollsim.fit.camera import branches_by_refined_levels
+
+    base = load_scene("paper-geometric", [])
+    # Saturated-looking levels (ON 1.02, OFF 0.98 at 12 rows): every branch's OFF level lies
+    # many periods' steps above the black background's face; nothing to move to.
+    assert branches_by_refined_levels(_refined(12.0, 1.02, 0.98), _measured(12.0, 1.02, 0.98, 0.0), base) is None
+    # Refined at 17 rows with OFF 0.15: the branch at 23 rows (the reflection, a period on)
+    # makes the same stripes with OFF -0.026. With a black background the face is measured
+    # dark, and that is the fit's error: 23 rows is the nearest. Without a background the face
+    # is only assumed dark, and a branch below zero is not a choice: the fit keeps its own.
+    refined = _refined(17.0, 1.15, 0.15)
+    ranked = branches_by_refined_levels(refined, _measured(3.0, 1.0, 0.0, 0.0), base)
+    assert ranked is not None and ranked[0].exposure_rows == pytest.approx(23.0)
+    assert MIN_OFF_LEVEL > ranked[0].off > -0.03
+    assert branches_by_refined_levels(refined, _measured(3.0, 1.0, 0.0), base) is None

@@ -10,7 +10,7 @@ darkest) around them gives its disk.
 import numpy as np
 import pytest
 
-from rollsim.fit.measure import disk_from_swing, find_led_region
+from rollsim.fit.measure import LedDisk, clear_background_block, disk_from_swing, find_led_region, halo_free
 from rollsim.fit.refine import moving_stripes
 
 PERIOD_ROWS = 16.0
@@ -87,3 +87,22 @@ def test_a_disk_whose_band_lies_outside_the_frame_is_refused_in_words():
     for disk in (LedDisk(130.0, 40.0, 20.0, 10), LedDisk(50.0, -30.0, 20.0, 10)):
         with pytest.raises(ValueError, match="no band of rows inside the 120x100 px frame"):
             central_band(disk, (100, 120))
+
+
+def test_a_large_led_takes_its_background_nearer_where_no_halo_shows():
+    # A disk of radius 120 px centred in a 300 x 400 frame: nothing lies beyond 1.8 radii, but
+    # the columns beyond 1.5 radii (x < 20 and x >= 380) are background.
+    shape, disk = (300, 400), LedDisk(200.0, 150.0, 120.0, 200)
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    distance = np.hypot(xx + 0.5 - 200.0, yy + 0.5 - 150.0)
+    flat = np.where(distance <= 120.0, 200.0, 40.0)
+    block = clear_background_block(flat, disk, 1.8)
+    assert block is not None and block[0] == slice(0, 300)
+    assert block[1].stop <= 200 - 1.5 * 120 + 1 or block[1].start >= 200 + 1.5 * 120 - 1
+    assert halo_free(flat, block, disk)
+    noisy = flat + np.random.default_rng(3).normal(0.0, 2.0, shape)  # a mean frame's noise
+    assert halo_free(noisy, block, disk) and clear_background_block(noisy, disk, 1.8) == block
+    # A glare halo falling with the distance from the LED: its wing lies in every nearer block.
+    halo = flat + np.where(distance > 120.0, 2000.0 / np.maximum(distance - 100.0, 1.0), 0.0)
+    assert not halo_free(halo, block, disk)
+    assert clear_background_block(halo, disk, 1.8) is None

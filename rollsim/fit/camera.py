@@ -389,17 +389,15 @@ def exposure_choices(m: Measured, base: Scene) -> list[ExposureChoice]:
     dark, and an LED filling the frame often has light on its face: such a
     choice is left out, as is a branch without such an exposure (unless
     every choice is).
+
+    The levels tell whole periods only where some choice's OFF level lies
+    within one period's step (:func:`off_step_per_period`) of the face's
+    light. Where none does, they point past every choice: the fewest whole
+    periods come first.
     """
     s, period = m.stripes, m.stripes_period_rows
     on0, off0 = s.on, s.off  # ON above OFF: rollsim.fit.stripes.right_way_up
-    starts = [(False, (s.exposure_rows, on0, off0))]
-    if 0 < s.exposure_rows < period:
-        starts.append((True, reflected_levels(s.exposure_rows, on0, off0, period)))
-    candidates = []
-    for reflected, (e0, a, b) in starts:
-        for k in range(MAX_WHOLE_PERIODS + 1):
-            exposure, on, off = levels_for_whole_periods(e0, a, b, period, k)
-            candidates.append(ExposureChoice(float(exposure), float(on), float(off), reflected, k))
+    candidates = exposure_branches(s.exposure_rows, on0, off0, period)
     face = face_level(m, base)
     y_min, y_max = profile_extremes(s.exposure_rows, on0, off0, period)
     ranked = []
@@ -416,7 +414,70 @@ def exposure_choices(m: Measured, base: Scene) -> list[ExposureChoice]:
                            ExposureChoice(pinned[0], pinned[1], face, c.reflected, c.whole_periods, True)))
     if not ranked:
         ranked = [(abs(c.off - face), c) for c in candidates]
+    if min(distance for distance, _ in ranked) > off_step_per_period(s.exposure_rows, on0, off0, period):
+        # No choice's OFF level comes within a period's step of the face's
+        # light: the levels point past every choice (the fit's levels are not
+        # the LED's: its ON rows clip, or the tone curve is not the camera's),
+        # and tell nothing of the whole periods. The fewest stand, as the
+        # stripes' shape read them; the OFF level orders the rest.
+        return [c for _, c in sorted(ranked, key=lambda item: (item[1].whole_periods, item[0]))]
     return [c for _, c in sorted(ranked, key=lambda item: item[0])]
+
+
+def off_step_per_period(exposure_rows: float, on: float, off: float, period_rows: float) -> float:
+    """How much each whole stripe period more lowers the OFF level (linear) that makes the same stripes:
+    Δ₀·P/(2·E₀) (:func:`rollsim.fit.stripes.levels_for_whole_periods`), the same from E₀ and from P − E₀."""
+    return float(abs(on - off) * period_rows / (2.0 * max(exposure_rows, 1e-9 * period_rows)))
+
+
+def exposure_branches(exposure_rows: float, on: float, off: float, period_rows: float) -> list[ExposureChoice]:
+    """Every exposure that makes the same stripes as ``exposure_rows`` (rows) with linear
+    levels ``on`` and ``off``, with the levels each implies: its E₀ within one period
+    and P − E₀, each with 0 to :data:`MAX_WHOLE_PERIODS` whole periods
+    (``reflected`` and ``whole_periods`` relative to E₀)."""
+    whole = whole_periods_in(exposure_rows, period_rows)
+    e0, a0, b0 = levels_for_whole_periods(exposure_rows, on, off, period_rows, -whole)
+    starts = [(False, (e0, a0, b0))]
+    if 0 < e0 < period_rows:
+        starts.append((True, reflected_levels(float(e0), a0, b0, period_rows)))
+    branches = []
+    for reflected, (e, a, b) in starts:
+        for k in range(MAX_WHOLE_PERIODS + 1):
+            exposure, level_on, level_off = levels_for_whole_periods(float(e), a, b, period_rows, k)
+            branches.append(ExposureChoice(float(exposure), float(level_on), float(level_off), reflected, k))
+    return branches
+
+
+def branches_by_refined_levels(p: Parameters, m: Measured, base: Scene) -> list[ExposureChoice] | None:
+    """The exposures a refined fit's levels allow, the one whose OFF level lies nearest the face's
+    light first; None where that is the fit's own (or none lies within a period's step of it).
+
+    The first choice (:func:`exposure_choices`) orders the whole periods by
+    the stripe fit's levels, which carry its biases (smoothing traded for
+    exposure, JPEG's and the ISP's effect on the levels). Refined by
+    rendering, the levels are the scene's that make the frames' stripes,
+    biases cancelled: their OFF level, mapped to every branch, places the
+    face's light better. With a background, a branch's OFF level a little
+    below zero is the fit's error, not negative light: the nearest counts.
+    Without one, the face is only assumed dark, and branches below zero
+    (beyond :data:`MIN_OFF_LEVEL`) are left out.
+    """
+    period = m.stripes_period_rows
+    branches = exposure_branches(p.exposure_rows, p.on_lin, p.off_lin, period)
+    own = branches[0]  # E₀, no whole period
+    step = off_step_per_period(own.exposure_rows, own.on, own.off, period)
+    face = face_level(m, base)
+    if m.background is None:
+        branches = [c for c in branches if c.off >= MIN_OFF_LEVEL]
+    if not branches:
+        return None
+    ranked = sorted(branches, key=lambda c: abs(c.off - face))
+    first = ranked[0]
+    if abs(first.off - face) > step:
+        return None  # the levels point past every branch (see exposure_choices)
+    if abs(first.exposure_rows - p.exposure_rows) < 1e-6 * period:
+        return None  # the fit's own branch
+    return ranked
 
 
 def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:

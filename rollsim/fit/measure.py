@@ -142,6 +142,79 @@ def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float)
     return block if area >= MIN_BACKGROUND_PIXELS else None
 
 
+# Nearer margins (radii from the LED's centre) tried, widest first, where the
+# frame holds no background block beyond the halo's assumed reach (a large
+# LED): each is taken only where the mean frame shows no halo in it
+# (:func:`halo_free`), and only clear of the LED's blurred edge by
+# MIN_EDGE_GAP_PX.
+NEARER_MARGINS_RADII = (1.5, 1.3, 1.15)
+MIN_EDGE_GAP_PX = 8
+# The most halo a background block may hold: HALO_LEVELS 8-bit levels and
+# HALO_FRACTION of its level, as the fall of its level away from the LED
+# tells it (:func:`halo_free`).
+HALO_LEVELS = 1.0
+HALO_FRACTION = 0.02
+# A glare halo's wings fall at least as fast as the distance squared (a
+# Moffat profile's fall as the distance to the power −2β, β > 1).
+HALO_FALL_POWER = 2.0
+
+
+def _halves(block: tuple[slice, slice], shape: tuple[int, int], disk: LedDisk) -> tuple[tuple, tuple]:
+    """The block's half nearer the LED and its half farther, split across the direction away from it."""
+    rows, cols = block
+    if cols.start == 0 and cols.stop == shape[1]:  # a band of whole rows, above or below the LED
+        mid = (rows.start + rows.stop) // 2
+        upper, lower = (slice(rows.start, mid), cols), (slice(mid, rows.stop), cols)
+        return (lower, upper) if rows.stop <= disk.centre_y_px else (upper, lower)
+    mid = (cols.start + cols.stop) // 2
+    left, right = (rows, slice(cols.start, mid)), (rows, slice(mid, cols.stop))
+    return (right, left) if cols.stop <= disk.centre_x_px else (left, right)
+
+
+def _mean_distance_px(half: tuple[slice, slice], disk: LedDisk) -> float:
+    rows, cols = half
+    y = np.arange(rows.start, rows.stop) + 0.5 - disk.centre_y_px
+    x = np.arange(cols.start, cols.stop) + 0.5 - disk.centre_x_px
+    return float(np.mean(np.hypot(x[None, :], y[:, None])))
+
+
+def halo_free(mean_frame: np.ndarray, block: tuple[slice, slice], disk: LedDisk) -> bool:
+    """Whether a background block holds less halo than :data:`HALO_LEVELS` and :data:`HALO_FRACTION`.
+
+    A halo h(d) falling as d^−n (n ≥ :data:`HALO_FALL_POWER`, d the distance
+    from the LED's centre) makes the block's half nearer the LED brighter than
+    its far half by h(d_far)·((d_far/d_near)^n − 1): the difference of the
+    halves' mean levels, so scaled, bounds the halo in the far half (from
+    above: a steeper fall holds less). A flat background leaves only the
+    means' noise; a background brightening towards the LED for other reasons
+    (vignetting around an LED at the frame's centre) is refused with it.
+    """
+    near, far = _halves(block, mean_frame.shape, disk)
+    near_level, far_level = float(np.mean(mean_frame[near])), float(np.mean(mean_frame[far]))
+    ratio = _mean_distance_px(far, disk) / max(_mean_distance_px(near, disk), 1e-9)
+    fall = ratio**HALO_FALL_POWER - 1.0
+    if not fall > 0:
+        return False
+    return (near_level - far_level) / fall <= HALO_LEVELS + HALO_FRACTION * far_level
+
+
+def clear_background_block(mean_frame: np.ndarray, disk: LedDisk, halo_radii: float) -> tuple[slice, slice] | None:
+    """The background block beyond ``halo_radii`` radii of the LED's centre (:func:`background_block`);
+    where the frame holds none (a large LED), the widest of :data:`NEARER_MARGINS_RADII`
+    whose block shows no halo (:func:`halo_free`); None when none does."""
+    shape = mean_frame.shape
+    block = background_block(shape, disk, halo_radii)
+    if block is not None:
+        return block
+    for margin in NEARER_MARGINS_RADII:
+        if margin >= halo_radii or (margin - 1.0) * disk.radius_px < MIN_EDGE_GAP_PX:
+            continue
+        block = background_block(shape, disk, margin)
+        if block is not None and halo_free(mean_frame, block, disk):
+            return block
+    return None
+
+
 # Swings (means over the stripes' rows or the LED's columns) within this
 # fraction of their peak are all the LED's: lit columns differ by its
 # profile and their averaged noise (a few per cent), the background's swing
@@ -242,7 +315,7 @@ def find_led_region(brightest: np.ndarray, darkest: np.ndarray, mean_frame: np.n
     if disk is None:
         c0, c1 = (0, w) if w <= NARROW_COLUMNS else (int(0.2 * w), int(np.ceil(0.8 * w)))
         return LedRegion(None, (slice(0, h), slice(c0, c1)), None)
-    block = background_block(shape, disk, halo_radii)
+    block = clear_background_block(mean_frame, disk, halo_radii)
     rows, cols = central_band(disk, shape)
     return LedRegion(disk, (bright_core_rows(brightest[rows, cols].mean(axis=1), rows, background), cols), block)
 

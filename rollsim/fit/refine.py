@@ -22,8 +22,8 @@ from rollsim.errors import SceneError
 from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, ExposureChoice, Measured, NoiseFit, \
-    Parameters, anchor_variance, corrected, direct, exposure_alternatives_rows, exposure_choices, level_ratio, \
-    levels_match, matched_terms, measure, noise_anchors
+    Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, exposure_alternatives_rows, \
+    exposure_choices, level_ratio, levels_match, matched_terms, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
@@ -258,15 +258,38 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
     choices = [choices[kept]] + choices[:kept] + choices[kept + 1:]
     say(f"exposure {choices[0].exposure_rows:.2f} rows" + (f", of the {len(trials)} the stripes allow rendered"
                                                             if len(trials) > 1 else ", the one the stripes allow"))
-    best = trials[kept]
-    score, params, scene, notes, rendered = best
-    for k in range(setting.iterations):
-        params = corrected(params, noise, target, rendered)
-        score, params, scene, notes, rendered = rendered_trial(params)
-        say(f"round {k + 1} of {setting.iterations}: exposure {scene.camera.exposure_us:.1f} us, "
-            f"ISO {scene.camera.iso:.0f} (mismatch {score:.3g})")
-        if score < best[0]:
-            best = score, params, scene, notes, rendered
+
+    def rounds(best: tuple, count: int) -> tuple:
+        """The best of ``best`` (a :func:`rendered_trial`) and ``count`` rounds refined from it."""
+        score, params, scene, notes, rendered = best
+        for k in range(count):
+            params = corrected(params, noise, target, rendered)
+            score, params, scene, notes, rendered = rendered_trial(params)
+            say(f"round {k + 1} of {count}: exposure {scene.camera.exposure_us:.1f} us, "
+                f"ISO {scene.camera.iso:.0f} (mismatch {score:.3g})")
+            if score < best[0]:
+                best = score, params, scene, notes, rendered
+        return best
+
+    best = rounds(trials[kept], setting.iterations)
+    # Where the renders chose (a clear margin), they decided; else the refined
+    # levels may place the face's light in another branch.
+    branches = branches_by_refined_levels(best[1], target, setting.base) if kept == 0 else None
+    if branches is not None:
+        # The levels propose, a render confirms: that branch is refined in
+        # turn, half the rounds first, and kept only where its render lies
+        # nearer the frames by RENDERED_MARGIN. The branches make the same
+        # stripes where nothing clips and the pipeline is linear, and their
+        # refined renders then differ by their noise; the levels, refined,
+        # still err by a fraction of a period's step.
+        say(f"the refined levels put the OFF level nearest the face's light at {branches[0].exposure_rows:.2f} rows; "
+            "refining from there")
+        half = (setting.iterations + 1) // 2
+        other = rounds(rendered_trial(with_exposure(best[1], branches[0])), half)
+        moved = RENDERED_MARGIN * other[0] < best[0]
+        say(f"mismatch {other[0]:.3g} there, {best[0]:.3g} before: " + ("moved" if moved else "kept"))
+        if moved:
+            best, choices = rounds(other, setting.iterations - half), branches
     _, params, scene, notes, rendered = best
     # The rounds move every parameter at once, and the round kept is the best
     # in all; its noise is then matched alone: the gain and read noise move,
