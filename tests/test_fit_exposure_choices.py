@@ -267,4 +267,5 @@ def test_refined_levels_out_of_reach_or_unmeasured_face_keep_the_branch():
     ranked = branches_by_refined_levels(refined, _measured(3.0, 1.0, 0.0, 0.0), base)
     assert ranked is not None and ranked[0].exposure_rows == pytest.approx(23.0)
     assert MIN_OFF_LEVEL > ranked[0].off > -0.03
+    assert len(ranked) > 1 and all(c.off >= MIN_OFF_LEVEL for c in ranked[1:])  # the alternatives
     assert branches_by_refined_levels(refined, _measured(3.0, 1.0, 0.0), base) is None

@@ -460,7 +460,8 @@ def branches_by_refined_levels(p: Parameters, m: Measured, base: Scene) -> list[
     face's light better. With a background, a branch's OFF level a little
     below zero is the fit's error, not negative light: the nearest counts.
     Without one, the face is only assumed dark, and branches below zero
-    (beyond :data:`MIN_OFF_LEVEL`) are left out.
+    (beyond :data:`MIN_OFF_LEVEL`) are left out. The others follow the first
+    (the fit's alternatives) where their OFF level is not below zero.
     """
     period = m.stripes_period_rows
     branches = exposure_branches(p.exposure_rows, p.on_lin, p.off_lin, period)
@@ -477,7 +478,8 @@ def branches_by_refined_levels(p: Parameters, m: Measured, base: Scene) -> list[
         return None  # the levels point past every branch (see exposure_choices)
     if abs(first.exposure_rows - p.exposure_rows) < 1e-6 * period:
         return None  # the fit's own branch
-    return ranked
+    # The others are the fit's alternatives: only those of light that is not negative.
+    return [first] + [c for c in ranked[1:] if c.off >= MIN_OFF_LEVEL]
 
 
 def resolve_exposure(m: Measured, base: Scene) -> tuple[float, float, float]:
