@@ -31,7 +31,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from decoder.binarize import binarize_profile
-from decoder.binning import MIN_GROUPS_PER_PERIOD, profile_binning
+from decoder.binning import MIN_GROUPS_PER_PERIOD, binned_groups, profile_binning
 from decoder.io import FrameError, as_frame_array, read_frame
 from decoder.pipeline import DEFAULT_CLOSE_ROWS
 from decoder.profile import RowProfile, row_profile
@@ -106,6 +106,16 @@ REGION_FRAMES = 12
 # background's; at most a quarter of the profile at each end is left out.
 LEVEL_MARGIN = 0.1
 LEVEL_MARGIN_SIGMAS = 4.0
+# An end edge of a profile lying off the other edges' grid by more than
+# RIM_EDGE_SIGMAS times their RMS residual (and MIN_RIM_EDGE_PERIODS of the
+# period) is the LED's rim, not a stripe's edge (:func:`without_rim_edges`).
+# Measured: a 324-row disk on a black background at 1.5 full scales, 62 rows
+# a period, reads its top rim 4 rows and its bottom rim 25 rows off the
+# stripes' grid, which moved the period by 3.4 % (rollsim bench fit-camera,
+# seed 6, camera 39); the edges between sit within a fraction of a row.
+RIM_EDGE_SIGMAS = 4.0
+MIN_RIM_EDGE_PERIODS = 0.02
+MAX_RIM_EDGES = 4
 # Stripes whose OFF rows lie within CLIPPED_DN of an 8-bit frame's full scale
 # are not read: there a row's mean counts the pixels that clip (the rim of a
 # saturated disk, whose outline crosses the pixel grid every few rows, the
@@ -190,6 +200,9 @@ def edge_period_rows(profile: RowProfile, guess_rows: float, min_edges: int = MI
     fit = grid_regression(k, e, rising, keep)
     if fit is None:
         return None
+    fit, keep = without_rim_edges(k, e, rising, keep, fit)
+    if keep.sum() < min_edges:
+        return None
     period, a_falling, a_rising, sxx = fit
     residual = (e - np.where(rising, a_rising, a_falling) - period * k)[keep]
     if np.sqrt(np.mean(residual**2)) > MAX_RESIDUAL_PERIODS * period:
@@ -207,6 +220,60 @@ def edge_period_rows(profile: RowProfile, guess_rows: float, min_edges: int = MI
     dof = max(1, residual.size - 1 - groups)
     stderr = float(np.sqrt(np.sum(residual**2) / dof / sxx))
     return period, stderr, int(residual.size)
+
+
+def without_rim_edges(k: np.ndarray, e: np.ndarray, rising: np.ndarray, keep: np.ndarray, fit):
+    """The edge regression again without the end edges that lie off the others' grid.
+
+    The profile's first and last edges can be the LED's rim rather than a
+    stripe's: where the background is as dark as the OFF rows,
+    :func:`led_rows` keeps it, and the rim's rise or fall (the disk's chords
+    lengthening) reads as an edge a few rows from where the stripes put one.
+    An end edge whose residual from the regression over the other edges
+    exceeds :data:`RIM_EDGE_SIGMAS` times the RMS residual of the edges
+    between the ends (and :data:`MIN_RIM_EDGE_PERIODS` of the period) is
+    left out, the farther end first, at most :data:`MAX_RIM_EDGES` times;
+    each polarity keeps two edges.
+
+    Parameters
+    ----------
+    k, e, rising, keep : ndarray
+        Each edge's period index, row, polarity and whether it is regressed
+        (rows in ascending order, as the runs give them).
+    fit : tuple
+        :func:`decoder.pitch.grid_regression` over ``keep``.
+
+    Returns
+    -------
+    (fit, keep)
+        The regression and the edges it kept.
+    """
+    keep = keep.copy()
+    for _ in range(MAX_RIM_EDGES):
+        kept = np.flatnonzero(keep)
+        if kept.size < 5:
+            break
+        found = []
+        for end in (kept[0], kept[-1]):
+            trial = keep.copy()
+            trial[end] = False
+            if np.count_nonzero(trial & (rising == rising[end])) < 2:
+                continue
+            refit = grid_regression(k, e, rising, trial)
+            if refit is None:
+                continue
+            period, a_falling, a_rising, _ = refit
+            residual = np.abs(e - np.where(rising, a_rising, a_falling) - period * k)
+            # Each end tried against the regression without it: an edge far
+            # off tilts the line it is measured against.
+            scale = float(np.sqrt(np.mean(residual[kept[1:-1]] ** 2)))
+            limit = max(RIM_EDGE_SIGMAS * scale, MIN_RIM_EDGE_PERIODS * period)
+            if residual[end] > limit:
+                found.append((residual[end] / limit, trial, refit))
+        if not found:
+            break
+        _, keep, fit = max(found, key=lambda f: f[0])
+    return fit, keep
 
 
 def runs_fit_a_square_wave(values: np.ndarray, bounds: np.ndarray, period_rows: float) -> bool:
@@ -460,6 +527,7 @@ def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES,
     """
     rows = led_rows(profile.values, profile.noise)
     profile = RowProfile(profile.first_row + rows.start, profile.values[rows], profile.noise[rows], profile.channel)
+    profile, k = binned_profile(profile)
     guess = spectral_period_rows(profile.values)
     if guess is None:
         return None
@@ -467,7 +535,34 @@ def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES,
     first = edge_period_rows(profile, guess, min_edges, full_scale_dn)
     if first is None:
         return None
-    return edge_period_rows(profile, first[0], min_edges, full_scale_dn)
+    found = edge_period_rows(profile, first[0], min_edges, full_scale_dn)
+    return None if found is None else (k * found[0], k * found[1], found[2])
+
+
+def binned_profile(profile: RowProfile) -> tuple[RowProfile, int]:
+    """A binned frame's profile with one value per group of rows, and the rows per group.
+
+    A binned sensor writes each group's value to its k rows, so a stripe's
+    edge falls between groups and, read row by row, sits on a group's edge:
+    k rows apart at most, which at a few groups a period moves the period by
+    a percent (rollsim bench fit-camera, seed 6, camera 28: 3 groups a
+    period, +0.98 %). One value per group, each group's mean, places an edge
+    between two groups' values as between two unbinned rows'; the period
+    found in groups is k times as many rows. Partial groups at the
+    profile's ends are left out. Unbinned profiles are returned as they are,
+    with k = 1.
+    """
+    values = np.asarray(profile.values, dtype=np.float64)
+    k, offset = binned_groups(np.abs(np.diff(values)))
+    if k == 1:
+        return profile, 1
+    groups = (values.size - offset) // k
+    if groups < 2:
+        return profile, 1
+    cut = slice(offset, offset + groups * k)
+    return RowProfile(profile.first_row + offset, values[cut].reshape(groups, k).mean(axis=1),
+                      np.asarray(profile.noise, dtype=np.float64)[cut].reshape(groups, k).mean(axis=1),
+                      profile.channel), k
 
 
 def _load(item):
@@ -494,6 +589,38 @@ def _period_in(image, region: StripeRegion | None = None) -> tuple[float, float,
 def _enough(found: tuple[float, float, int] | None) -> bool:
     """Whether a frame's estimate rests on :data:`MIN_EDGES` edges or more."""
     return found is not None and found[2] >= MIN_EDGES
+
+
+def combined_period(periods: np.ndarray, errors: np.ndarray) -> tuple[float, float]:
+    """The frames' periods combined: a random-effects mean, and its standard error (rows).
+
+    Each frame's standard error comes from its own edges' residuals, a
+    dozen or two: where the frames scatter more than those allow (JPEG's
+    errors or a binned group's edge, alike along one frame's edges but not
+    from frame to frame), weighting by them alone lets the frame that
+    happens to fit best carry the mean. The scatter beyond them, τ²
+    (DerSimonian and Laird's moment estimate), is added to every frame's
+    variance before weighting; with no excess scatter the weights are the
+    inverse variances. The standard error is the larger of the weighted
+    mean's and the frames' spread over √n.
+
+    Parameters
+    ----------
+    periods, errors : ndarray, shape (n,)
+        Each frame's period and its standard error (rows), errors > 0.
+    """
+    p = np.asarray(periods, dtype=np.float64)
+    w = 1.0 / np.asarray(errors, dtype=np.float64) ** 2
+    if p.size > 1:
+        mean = float(np.sum(w * p) / np.sum(w))
+        q = float(np.sum(w * (p - mean) ** 2))
+        tau2 = max(0.0, (q - (p.size - 1)) / float(np.sum(w) - np.sum(w**2) / np.sum(w)))
+        w = 1.0 / (1.0 / w + tau2)
+    period = float(np.sum(w * p) / np.sum(w))
+    sigma = float(np.sqrt(1.0 / np.sum(w)))
+    if p.size > 1:
+        sigma = max(sigma, float(np.std(p, ddof=1) / np.sqrt(p.size)))
+    return period, sigma
 
 
 def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
@@ -569,11 +696,6 @@ def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
     errors = [max(f[1], 1e-9 * f[0]) for f in read]
     if not periods:
         raise RowTimeError("no frame shows a square-wave LED to calibrate the row time from")
-    p = np.asarray(periods)
-    w = 1.0 / np.asarray(errors) ** 2
-    period = float(np.sum(w * p) / np.sum(w))
-    sigma = float(np.sqrt(1.0 / np.sum(w)))
-    if p.size > 1:
-        sigma = max(sigma, float(np.std(p, ddof=1) / np.sqrt(p.size)))
+    period, sigma = combined_period(np.asarray(periods), np.asarray(errors))
     chip_pair_s = 2.0 / clock_hz
     return chip_pair_s / period, chip_pair_s * sigma / period**2

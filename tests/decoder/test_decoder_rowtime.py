@@ -300,3 +300,65 @@ def test_the_reading_kept_has_enough_edges_then_the_least_error():
     assert best_reading([few, noisy]) == noisy  # enough edges first
     assert best_reading([None, few]) == few
     assert best_reading([None, None]) is None
+
+
+def _saturated_disk_profile(phase_chips: float, period_rows: float = 62.0, rows: int = 330) -> RowProfile:
+    """A saturated LED's row profile over a few periods (ON clipped at 255, OFF at
+    the black background's level), its disk's rim inside an ON run at each end."""
+    level = profile_from_chips(np.tile([1.0, 0.0], 40), period_rows / 2, exposure_rows=0.3 * period_rows,
+                               phase_chips=phase_chips)[:rows]
+    values = np.minimum(8.0 + 600.0 * level, 255.0)
+    on = np.flatnonzero(values > 250.0)
+    top, bottom = on[on > 5][0] + 8, on[on < rows - 5][-1] - 8
+    values[:top] = values[bottom:] = 8.0
+    rng = np.random.default_rng(0)
+    return RowProfile(0, values + rng.normal(0.0, 0.5, rows), np.full(rows, 0.5))
+
+
+@pytest.mark.parametrize("phase_chips", [0.6, 0.8, 1.0, 1.2])
+def test_a_disk_rim_inside_an_on_run_is_not_a_stripe_edge(phase_chips):
+    # The rim's rise and fall lie 8 and more rows off the stripes' grid; read
+    # as edges they moved the period by 1.8-4 % (rollsim bench fit-camera,
+    # seed 6, camera 39: +3.45 %).
+    from decoder.rowtime import FEW_EDGES
+
+    found = profile_period_rows(_saturated_disk_profile(phase_chips), FEW_EDGES, full_scale_dn=255.0)
+    assert found is not None and found[0] == pytest.approx(62.0, rel=0.001)
+
+
+def _binned_profile(period_rows: float, phase_chips: float, rows: int = 70, k: int = 2, seed: int = 0) -> RowProfile:
+    """A binned sensor's profile: each group of k rows exposed together, its value written to all k."""
+    level = profile_from_chips(np.tile([1.0, 0.0], 200), period_rows / 2, exposure_rows=1.0,
+                               phase_chips=phase_chips)[:rows]
+    rng = np.random.default_rng(seed)
+    groups = 10.0 + 100.0 * level[0::k] + rng.normal(0.0, 1.0, level[0::k].size)
+    return RowProfile(0, np.repeat(groups, k)[:rows], np.full(rows, 1.0))
+
+
+@pytest.mark.parametrize("period_rows", [5.3, 6.09])
+def test_binned_rows_place_edges_between_groups(period_rows):
+    # Read row by row, every edge sits on a group's edge: at 3 groups a
+    # period the period moved by up to 0.8 %, at 2.65 it was not read at all.
+    from decoder.rowtime import FEW_EDGES, binned_profile
+
+    grouped, k = binned_profile(_binned_profile(period_rows, 0.0))
+    assert k == 2 and grouped.values.size == 35
+    for i, phase in enumerate(np.linspace(0.0, 2.0, 9)[:-1]):
+        found = profile_period_rows(_binned_profile(period_rows, phase, seed=i), FEW_EDGES)
+        assert found is not None and found[0] == pytest.approx(period_rows, rel=0.005)
+
+
+def test_frames_combined_by_inverse_variance_where_they_agree_and_evenly_where_they_scatter():
+    from decoder.rowtime import combined_period
+
+    # Frames within their errors: the inverse-variance mean.
+    periods, errors = np.array([10.0, 10.02, 9.99]), np.array([0.01, 0.02, 0.03])
+    w = 1.0 / errors**2
+    assert combined_period(periods, errors)[0] == pytest.approx(np.sum(w * periods) / np.sum(w))
+    # Equal errors: the plain mean, whatever the scatter.
+    assert combined_period(np.array([10.0, 10.5, 9.7]), np.full(3, 0.01))[0] == pytest.approx(np.mean([10.0, 10.5, 9.7]))
+    # Frames scattering ten times beyond their errors: the one that happens to
+    # fit best (error 0.001) no longer carries the mean.
+    periods, errors = np.array([9.8, 10.0, 10.2, 10.1, 9.9, 10.3]), np.array([0.02, 0.02, 0.02, 0.02, 0.02, 0.001])
+    period, sigma = combined_period(periods, errors)
+    assert abs(period - periods.mean()) < 0.02 and sigma >= np.std(periods, ddof=1) / np.sqrt(periods.size)
