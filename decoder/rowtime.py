@@ -3,21 +3,24 @@
 An LED sending ON on even chips and OFF on odd chips (rollsim's ``square``
 pattern, period 2 / f) paints stripes of period P rows, so the row time is
 t_row = (2 / f) / P. P is found in two steps, on the profile's rows within
-the LED's levels (:func:`led_rows`: not its disk's rim):
+the LED's levels (:func:`led_rows`: not its disk's rim), one value a group
+where the rows are binned (:func:`binned_profile`):
 
 1. the peak of the profile's spectrum (zero-padded FFT, parabolic
    interpolation), a first guess good to a few percent;
 2. a regression over every edge: each rising (falling) edge sits at
    a + P·k for an integer period index k. Rising and falling edges get their
    own intercept, so blooming or a long exposure, which widen the ON bands,
-   do not bias P. The regression's standard error is the uncertainty.
+   do not bias P; an end edge off the others' grid is the disk's rim and is
+   left out (:func:`without_rim_edges`). The regression's standard error is
+   the uncertainty.
 
 A frame is read over the region where its stripes move between frames
 (:mod:`decoder.stripe_region`) and over its brightest region, in every
 channel of a colour frame, and the reading whose edges fit a period best
-is kept (:func:`best_reading`). Frames are combined by inverse-variance
-weighting; the uncertainty is the larger of the combined standard error
-and the spread between frames.
+is kept (:func:`best_reading`). Frames are combined by a random-effects
+mean (:func:`combined_period`); the uncertainty is the larger of the
+combined standard error and the spread between frames.
 """
 
 from __future__ import annotations
