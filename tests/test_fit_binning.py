@@ -104,3 +104,42 @@ def test_jpeg_and_smoothing_without_binning_stay_unbinned_at_every_block_place()
     fraction, _, pairs = paired_steps(row_steps(luminance))
     assert pairs > 100 and fraction < 0.85
     assert detect_binning(luminance) == (1, 0)
+
+
+def _model_profiles(binning: tuple[int, int], seed: int, smoothing_rows: float = 0.0) -> tuple[np.ndarray, list]:
+    """Four frames' row profiles of the stripe model (period 17.5 rows, exposure 7.7 rows, levels 40 and 200),
+    at four phases, with noise of 0.5 levels."""
+    from rollsim.fit.stripes import stripe_profile
+
+    rng = np.random.default_rng(seed)
+    rows = np.arange(100, 400)
+    profiles = [stripe_profile(rows, 17.5, 3.1 + 4.3 * f, 7.7, smoothing_rows, 1.0, 200 / 255, 40 / 255,
+                               binning=binning) + rng.normal(0, 0.5, rows.size) for f in range(4)]
+    return rows, profiles
+
+
+@pytest.mark.parametrize("offset", [0, 1])
+def test_stripes_edges_in_steps_of_two_rows_read_as_binned(offset):
+    # The model's own binned profiles: the unbinned model leaves a residual
+    # of the staircase, the binned one (at the right offset) only the noise.
+    from rollsim.fit.binning import BINNED_RESIDUAL_RATIO, binned_if_nearer
+    from rollsim.fit.stripes import fit_stripes
+
+    rows, profiles = _model_profiles((2, offset), seed=offset)
+    unbinned = fit_stripes(profiles, rows, 17.5)
+    fit, binning = binned_if_nearer(unbinned, profiles, rows, 17.5)
+    assert binning == (2, offset)
+    assert fit.rms_residual <= BINNED_RESIDUAL_RATIO * unbinned.rms_residual
+    assert fit.rms_residual == pytest.approx(0.5, rel=0.2)  # the noise
+    assert fit.exposure_rows == pytest.approx(7.7, abs=0.1)
+
+
+@pytest.mark.parametrize("smoothing_rows", [0.0, 1.5])
+def test_stripes_of_an_unbinned_camera_stay_unbinned(smoothing_rows):
+    from rollsim.fit.binning import binned_if_nearer
+    from rollsim.fit.stripes import fit_stripes
+
+    rows, profiles = _model_profiles((1, 0), seed=7, smoothing_rows=smoothing_rows)
+    unbinned = fit_stripes(profiles, rows, 17.5)
+    fit, binning = binned_if_nearer(unbinned, profiles, rows, 17.5)
+    assert binning == (1, 0) and fit is unbinned

@@ -35,7 +35,7 @@ from typing import Sequence
 
 import numpy as np
 
-from rollsim.fit.binning import detect_binning
+from rollsim.fit.binning import binned_if_nearer, detect_binning
 from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, find_led_region, level_noise_pairs, \
     temporal_noise
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
@@ -198,6 +198,9 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     gamma = tone_from_noise(levels[keep], variances[keep]) if start is None else None
     stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning,
                           gamma=gamma)
+    if start is None and binning == (1, 0):
+        # Pairs that JPEG or smoothing hid from the rows' steps still show in the stripes' edges.
+        stripes, binning = binned_if_nearer(stripes, profiles, np.arange(rows.start, rows.stop), period)
     if start is None:
         # Ends of the band the square wave does not hold (an LED's rim in a
         # crop it fills, a halo) are left out; rendered frames are measured

@@ -523,7 +523,8 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
                                   "from the background's level" if m.background is not None else
                                   "from the OFF rows' level (the ambient light on the LED's face)")
     out["binning_rows"] = Estimate(float(scene.camera.binning_rows), None, "rows",
-                                   "rows in groups of near-identical values (binned readout)")
+                                   "rows in groups (binned readout): near-identical rows, the order of their "
+                                   "steps, or the stripes' edges in steps of two rows (rollsim.fit.binning)")
     out.update(led_geometry(m, scene))
     lens = base.camera
     for name, value, unit in (("focal_length_mm", lens.focal_length_mm, "mm"), ("f_number", lens.f_number, ""),
