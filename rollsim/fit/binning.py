@@ -128,7 +128,7 @@ def detect_binning(frames: Sequence[np.ndarray]) -> tuple[int, int]:
     return 1, 0
 
 
-def binned_if_nearer(stripes: StripeFit, profiles: Sequence[np.ndarray], rows: np.ndarray,
+def binned_if_nearer(stripes: StripeFit, profiles: list[np.ndarray], rows: np.ndarray,
                      period_rows: float) -> tuple[StripeFit, tuple[int, int]]:
     """The stripe fit with pairs of rows read as one, where the stripes' own shape asks for it.
 
