@@ -114,7 +114,8 @@ def _effects(base_effects: dict, p: Parameters, gamma: float, smoothing: float, 
 
 
 def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters, notes: list,
-                 plane: str = "grey", recording=None, frame_rate_hz: float | None = None) -> Scene:
+                 plane: str = "grey", recording=None, frame_rate_hz: float | None = None,
+                 jpeg_quality: int | None = None) -> Scene:
     """The base scene with the fitted camera, ISP, LED image and ambient light.
 
     ``plane``: what of the frames was fitted, ``grey`` or a colour plane
@@ -124,7 +125,9 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     levels are those of the plane's channel (:func:`plane_response`).
     ``recording`` (:class:`rollsim.video.VideoSettings`): the frames came
     from a video so encoded, which the scene then renders through
-    (``video_codec``), at the video's ``frame_rate_hz``.
+    (``video_codec``), at the video's ``frame_rate_hz``. ``jpeg_quality``: the
+    frames were saved as JPEG of that quality (:func:`rollsim.fit.compression.jpeg_quality`),
+    which the scene then renders through (``jpeg``).
     """
     from rollsim.optics import led_image_size_px
     from rollsim.optics.scene_light import ambient_electron_rates
@@ -173,6 +176,8 @@ def fitted_scene(base: Scene, shape, clock_hz: float, m: Measured, p: Parameters
     data["effects"] = _effects(data.get("effects", {}), p, gamma, smoothing, m.profile)
     if colour:
         data["effects"]["bayer"] = {"pattern": "RGGB"}
+    if jpeg_quality is not None:
+        data["effects"]["jpeg"] = {"quality": int(jpeg_quality)}
     if recording is not None:
         from rollsim.effects.video_codec import params_of
 

@@ -21,6 +21,7 @@ import numpy as np
 from rollsim.errors import SceneError
 from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
+from rollsim.fit.compression import jpeg_quality
 from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, ExposureChoice, Measured, NoiseFit, \
     Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, exposure_alternatives_rows, \
     exposure_choices, level_ratio, levels_match, matched_terms, measure, noise_anchors
@@ -45,6 +46,10 @@ RENDERED_GAIN = 0.1
 # rendered, must miss the other plane's exposure before that plane's fit
 # can replace it (:func:`plane_kept`).
 PLANE_SIGMAS = 3.0
+# The colour plane a Bayer sensor samples on every row (red and blue: every
+# other row, their rows between interpolated), kept where two planes' fits
+# hold each other's stripes alike.
+EVERY_ROW_PLANE = "green"
 # A stripe swing under this (8-bit levels: half a level) shows no stripes in
 # 8-bit frames (:func:`mismatch`).
 MIN_SWING_DN = 0.5
@@ -163,8 +168,12 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             "fitting the stripes and the noise")
         candidates = [("grey", grey, measure(grey, clock_hz, row_time=row_time, stripes_at=stripes_at,
                                              binning=binning))]
+    # A video's codec is told by its file; stills saved as JPEG show their quality.
+    jpeg = jpeg_quality(frames) if recording is None else None
+    if jpeg is not None:
+        say(f"the frames were saved as JPEG of quality {jpeg}: the fit renders through it")
     setting = Refinement(base, shape, clock_hz, len(frames), iterations, say,
-                         {"recording": recording, "frame_rate_hz": frame_rate_hz})
+                         {"recording": recording, "frame_rate_hz": frame_rate_hz, "jpeg_quality": jpeg})
     fits = [refined(setting, candidates[0][0], candidates[0][2])]
     for channel, _, target in candidates[1:]:
         try:
@@ -190,7 +199,9 @@ def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
     statistics are the other fit's ``measured``), and the second fit replaces the
     first where its render lies nearer the first plane's exposure than the
     first's lies to the second plane's, and the first's misses by more than
-    :data:`PLANE_SIGMAS` sigmas of the second plane's stripe fit. The stripes' shape
+    :data:`PLANE_SIGMAS` sigmas of the second plane's stripe fit; where both
+    renders lie within those sigmas, the frames do not tell the fits apart,
+    and the green plane's (:data:`EVERY_ROW_PLANE`) is kept. The stripes' shape
     tells the exposure only within a stripe period, so fits an exposure
     half a period or more apart (whole periods, chosen by the levels) are
     not compared, nor are renders whose ON level in the other plane is not
@@ -212,6 +223,12 @@ def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
     other = second.measured.stripes
     sd = exposure_precision(second.measured) * other.exposure_rows / max(1.0, other.exposure_rows)
     noise = 2.0 * (PLANE_SIGMAS * sd) ** 2
+    if max(first_across, second_across) <= noise and second.channel == EVERY_ROW_PLANE:
+        # Each fit's render holds the other plane's stripes: the frames do not
+        # tell the two apart, and the plane sampled on every row is kept.
+        return 1, (f"rendered and read in the other plane, each fit's exposure is within {PLANE_SIGMAS:g} sigmas "
+                   f"(mismatch {first_across:.3g} and {second_across:.3g}); the {second.channel} plane is sampled "
+                   f"on every row of a Bayer sensor, the {first.channel} plane on every other row")
     if not first_across > max(noise, second_across):
         return 0, (f"rendered and read in the other plane, its exposure is within {PLANE_SIGMAS:g} sigmas or the "
                    f"nearer (mismatch {first_across:.3g} against {second_across:.3g} for the {second.channel} "
@@ -224,8 +241,9 @@ def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
 @dataclass(frozen=True)
 class Refinement:
     """What every plane's refinement shares: the base scene, the frames' shape (rows, columns),
-    the chip rate (Hz), the number of frames, the rounds, the progress callback and the
-    video settings (:func:`rollsim.fit.fitted_scene.fitted_scene`'s ``recording`` and ``frame_rate_hz``)."""
+    the chip rate (Hz), the number of frames, the rounds, the progress callback and how the
+    frames were encoded (:func:`rollsim.fit.fitted_scene.fitted_scene`'s ``recording``,
+    ``frame_rate_hz`` and ``jpeg_quality``)."""
 
     base: Scene
     shape: tuple
@@ -233,7 +251,7 @@ class Refinement:
     n_frames: int
     iterations: int
     say: Callable[[str], None]
-    video: dict
+    encoding: dict
 
 
 def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
@@ -248,7 +266,7 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
         """(mismatch, parameters, scene, notes, the rendered frames' statistics) of ``p``."""
         trial_notes: list[str] = []
         trial_scene = fitted_scene(setting.base, setting.shape, setting.clock_hz, target, p, trial_notes,
-                                   plane=channel, **setting.video)
+                                   plane=channel, **setting.encoding)
         trial_rendered = measure_rendered(trial_scene, setting.n_frames, channel, target)
         return mismatch(target, trial_rendered, p.gamma), p, trial_scene, trial_notes, trial_rendered
 
@@ -466,6 +484,17 @@ def noise_mismatch(target: Measured, rendered: Measured, gamma: float) -> float:
                for a in noise_anchors(target, gamma))
 
 
+def jpeg_estimate(scene: Scene) -> Estimate:
+    """The JPEG quality the fitted scene renders through (:mod:`rollsim.fit.compression`), or why none."""
+    jpeg = scene.effects.jpeg
+    if jpeg is not None:
+        return Estimate(float(jpeg.quality), None, "", "the lowest IJG quality whose JPEG round trip leaves the "
+                        "frames' unclipped blocks as they are")
+    return Estimate(0.0, None, "", "rendered without JPEG", NOT_IDENTIFIED,
+                    "no IJG quality's round trip leaves the frames as they are: not compressed, compressed nearly "
+                    "losslessly (quality 95 and above), or with the camera's own tables")
+
+
 def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene,
               choices: Sequence[ExposureChoice]) -> dict:
     """Every parameter of the fitted scene with its uncertainty and source; ``choices``
@@ -522,6 +551,8 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
     out["ambient_lux"] = Estimate(scene.environment.ambient_lux, None, "lx",
                                   "from the background's level" if m.background is not None else
                                   "from the OFF rows' level (the ambient light on the LED's face)")
+    if scene.effects.video_codec is None:  # a video's codec is its file's, not fitted
+        out["jpeg_quality"] = jpeg_estimate(scene)
     out["binning_rows"] = Estimate(float(scene.camera.binning_rows), None, "rows",
                                    "rows in groups (binned readout): near-identical rows, the order of their "
                                    "steps, or the stripes' edges in steps of two rows (rollsim.fit.binning)")
