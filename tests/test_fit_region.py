@@ -106,3 +106,19 @@ def test_a_large_led_takes_its_background_nearer_where_no_halo_shows():
     halo = flat + np.where(distance > 120.0, 2000.0 / np.maximum(distance - 100.0, 1.0), 0.0)
     assert not halo_free(halo, block, disk)
     assert clear_background_block(halo, disk, 1.8) is None
+
+
+def test_a_band_shorter_than_two_stripe_periods_is_refused_in_words():
+    # A region found wrongly (seed 6 camera 29's green plane: 8 rows of a
+    # 16.7-row period) cannot be fitted; a ValueError, by which a colour
+    # plane so read is passed over (rollsim.fit.refine.measured_planes).
+    from rollsim.fit.camera import MIN_BAND_PERIODS, measure
+    from rollsim.fit.measure import LedRegion
+
+    rows = np.arange(200)[:, None]
+    frames = [100.0 + 60.0 * (np.mod(rows + 3.0 * f, 20.0) < 10.0) + np.zeros((200, 40)) for f in range(3)]
+    row_time = (1.0 / (4000 * 10.0), 0.0)  # a period of 20 rows at 4 kHz
+    short = LedRegion(None, (slice(100, 139), slice(10, 30)), None)
+    assert 39 < MIN_BAND_PERIODS * 20.0
+    with pytest.raises(ValueError, match=r"the LED's rows hold 1\.9 stripe periods \(< 2\)"):
+        measure(frames, 4000.0, row_time, region=short)

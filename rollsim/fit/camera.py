@@ -164,6 +164,11 @@ class Measured:
     stripes_period_rows: float  # the stripe period the stripes were fitted with
 
 
+# The fewest stripe periods the LED's band must hold: the stripes' fit reads the
+# exposure from whole periods' edges, and the check aligns profiles over one.
+MIN_BAND_PERIODS = 2.0
+
+
 def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float],
             region: LedRegion | None = None, start: StripeFit | None = None,
             stripes_at: tuple[slice, float] | None = None, binning: tuple[int, int] | None = None) -> Measured:
@@ -177,7 +182,10 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     frames) checks the region found (:func:`rollsim.fit.measure.find_led_region`).
     ``binning`` (k, offset) skips its detection (:func:`rollsim.fit.binning.detect_binning`
     on ``frames``): colour frames' is seen on their luminance, rendered
-    frames' is what was rendered.
+    frames' is what was rendered. A ValueError says why frames cannot be
+    measured: among others, an LED whose band holds fewer than
+    :data:`MIN_BAND_PERIODS` stripe periods (a colour plane's fit passes
+    that plane over, :func:`rollsim.fit.refine.measured_planes`).
     """
     shape = frames[0].shape
     row_time_s, row_time_sd = row_time
@@ -187,6 +195,9 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     if region is None:
         region = find_led_region(brightest, np.min(frames, axis=0), mean_frame, HALO_RADII, period, stripes_at)
     rows, cols = region.band
+    if rows.stop - rows.start < MIN_BAND_PERIODS * period:
+        raise ValueError(f"the LED's rows hold {(rows.stop - rows.start) / period:.1f} stripe periods "
+                         f"(< {MIN_BAND_PERIODS:g}): too few to fit the stripes")
     if binning is None:
         binning = detect_binning(frames)
     profiles = [f[rows, cols].mean(axis=1) for f in frames]
