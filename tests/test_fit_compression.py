@@ -48,3 +48,19 @@ def test_clipped_blocks_and_a_cut_grid_are_left_out():
     assert unclipped_blocks([np.full((64, 64), 0, np.uint8)]).shape == (0, 8, 8)
     # A crop 3 rows into the JPEG's grid: the blocks read are not the codec's.
     assert jpeg_quality([f[3:] for f in frames]) is None
+
+
+@pytest.mark.parametrize("quality", [50, 64, 75])
+def test_low_contrast_frames_read_within_two_qualities(quality):
+    # Stripes of 10 levels with noise of 1: most coefficients are one or two
+    # steps, which a neighbouring quality's tables requantise alike.
+    rng = np.random.default_rng(quality)
+    rows = np.arange(240)[:, None]
+    frames = [jpeg_round_trip(np.clip(np.rint(100.0 + 10.0 * (np.mod(rows + 5.1 * f, 17.3) < 8.6)
+                                              + rng.normal(0, 1, (240, 320))), 0, 255).astype(np.uint8), quality)
+              for f in range(3)]
+    assert abs(jpeg_quality(frames) - quality) <= 2
+
+
+def test_nearly_lossless_qualities_are_not_read():
+    assert jpeg_quality(_frames(6, False, 97)) is None

@@ -7,8 +7,11 @@ the decoder's rounding to integer pixels, which is less than half a step
 (a JPEG's round trip is idempotent). With coarser steps the true multiples
 move to other multiples; with finer ones that do not divide them, they
 move by up to half a step; frames never compressed change under every
-table. The quality read is the lowest (the coarsest steps) whose round
-trip leaves all but :data:`MAX_CHANGED` of the pixels as they were. A
+table. The quality read is the one whose round trip changes the fewest
+pixels, where that leaves all but :data:`MAX_CHANGED` of them as they
+were: a neighbouring quality's steps differ by a fraction of a step, and
+the coefficients of flat, low-contrast blocks (one or two steps) come
+back alike under both, but not all of them. A
 camera app's tables are the IJG tables of ITU-T T.81 Annex K scaled for a
 quality, as libjpeg's and OpenCV's (:func:`rollsim.isp.jpeg_islow.quantisation_table`).
 
@@ -38,6 +41,11 @@ MAX_CHANGED = 0.02
 # frames' unclipped blocks: a round trip per quality costs their pixels).
 MIN_BLOCKS = 64
 MAX_BLOCKS = 4096
+
+
+# The qualities read. From 95 the steps are 1 to 3 (all 1 at 100): a round
+# trip there changes few pixels of any flat frame, compressed or not.
+QUALITIES = np.arange(1, 95)
 
 
 def luminance(frame: np.ndarray) -> np.ndarray:
@@ -80,12 +88,13 @@ def changed_share(image: np.ndarray, quality: int) -> float:
 
 
 def jpeg_quality(frames: Sequence[np.ndarray]) -> int | None:
-    """The JPEG quality (1 … 100) whose round trip leaves the frames as they are, or None.
+    """The JPEG quality (1 … 94) whose round trip leaves the frames as they are, or None.
 
-    The lowest quality whose round trip changes at most :data:`MAX_CHANGED`
-    of the pixels of :data:`MIN_BLOCKS` or more unclipped blocks (see the
-    module's docstring); None where none does, or too few blocks are clear
-    of the clips.
+    The quality whose round trip changes the fewest pixels of
+    :data:`MIN_BLOCKS` or more unclipped blocks (the lowest of equals),
+    where that is at most :data:`MAX_CHANGED` of them (see the module's
+    docstring); None where no quality's is, or too few blocks are clear of
+    the clips.
 
     Parameters
     ----------
@@ -96,7 +105,10 @@ def jpeg_quality(frames: Sequence[np.ndarray]) -> int | None:
     if blocks.shape[0] < MIN_BLOCKS:
         return None
     image = mosaic(blocks)
-    for quality in range(1, 101):
-        if changed_share(image, quality) <= MAX_CHANGED:
-            return quality
-    return None
+    shares = np.array([changed_share(image, quality) for quality in QUALITIES])
+    if shares.min() > MAX_CHANGED:
+        return None
+    # Neighbouring qualities' steps differ by a fraction of a step, and
+    # coefficients of one or two steps (flat, low-contrast blocks) requantise
+    # alike under both: the frames' own tables change the fewest pixels.
+    return int(QUALITIES[int(np.argmin(shares))])

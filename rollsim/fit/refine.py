@@ -46,10 +46,6 @@ RENDERED_GAIN = 0.1
 # rendered, must miss the other plane's exposure before that plane's fit
 # can replace it (:func:`plane_kept`).
 PLANE_SIGMAS = 3.0
-# The colour plane a Bayer sensor samples on every row (red and blue: every
-# other row, their rows between interpolated), kept where two planes' fits
-# hold each other's stripes alike.
-EVERY_ROW_PLANE = "green"
 # A stripe swing under this (8-bit levels: half a level) shows no stripes in
 # 8-bit frames (:func:`mismatch`).
 MIN_SWING_DN = 0.5
@@ -64,6 +60,7 @@ class CameraFit:
     measured: Measured  # the frames' statistics the fit started from
     notes: list = field(default_factory=list)
     channel: str = "grey"  # what of the frames was fitted: grey, or a colour frame's plane (red, green, blue)
+    mismatch: float = math.nan  # how far the fitted scene's render lies from the frames (:func:`mismatch`)
 
     def grey(self, frames: Sequence[np.ndarray]) -> list[np.ndarray]:
         """``frames`` as the fit saw them (the chosen plane of colour frames), float64."""
@@ -200,8 +197,9 @@ def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
     first where its render lies nearer the first plane's exposure than the
     first's lies to the second plane's, and the first's misses by more than
     :data:`PLANE_SIGMAS` sigmas of the second plane's stripe fit; where both
-    renders lie within those sigmas, the frames do not tell the fits apart,
-    and the green plane's (:data:`EVERY_ROW_PLANE`) is kept. The stripes' shape
+    renders lie within those sigmas, the other planes do not tell the fits
+    apart, and the fit whose render lies nearer the frames in its own plane
+    (:attr:`CameraFit.mismatch`) is kept. The stripes' shape
     tells the exposure only within a stripe period, so fits an exposure
     half a period or more apart (whole periods, chosen by the levels) are
     not compared, nor are renders whose ON level in the other plane is not
@@ -223,12 +221,14 @@ def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
     other = second.measured.stripes
     sd = exposure_precision(second.measured) * other.exposure_rows / max(1.0, other.exposure_rows)
     noise = 2.0 * (PLANE_SIGMAS * sd) ** 2
-    if max(first_across, second_across) <= noise and second.channel == EVERY_ROW_PLANE:
-        # Each fit's render holds the other plane's stripes: the frames do not
-        # tell the two apart, and the plane sampled on every row is kept.
+    if max(first_across, second_across) <= noise and second.mismatch < first.mismatch:
+        # Each fit's render holds the other plane's stripes: read in the other
+        # plane, the frames do not tell the two apart; in its own, the fit
+        # whose render lies nearer the frames is the better.
         return 1, (f"rendered and read in the other plane, each fit's exposure is within {PLANE_SIGMAS:g} sigmas "
-                   f"(mismatch {first_across:.3g} and {second_across:.3g}); the {second.channel} plane is sampled "
-                   f"on every row of a Bayer sensor, the {first.channel} plane on every other row")
+                   f"(mismatch {first_across:.3g} and {second_across:.3g}); in its own plane, the {second.channel} "
+                   f"fit's render lies nearer the frames (mismatch {second.mismatch:.3g} against "
+                   f"{first.mismatch:.3g})")
     if not first_across > max(noise, second_across):
         return 0, (f"rendered and read in the other plane, its exposure is within {PLANE_SIGMAS:g} sigmas or the "
                    f"nearer (mismatch {first_across:.3g} against {second_across:.3g} for the {second.channel} "
@@ -320,7 +320,8 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
             break
         params, scene, notes, rendered = trial, trial_scene, trial_notes, trial_rendered
         say(f"noise matched: ISO {scene.camera.iso:.0f}")
-    return CameraFit(estimates(target, params, noise, scene, setting.base, choices), scene, target, notes, channel)
+    return CameraFit(estimates(target, params, noise, scene, setting.base, choices), scene, target, notes, channel,
+                     mismatch(target, rendered, params.gamma))
 
 
 def with_exposure(p: Parameters, choice: ExposureChoice) -> Parameters:
