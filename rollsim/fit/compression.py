@@ -105,7 +105,7 @@ def jpeg_quality(frames: Sequence[np.ndarray]) -> int | None:
     if blocks.shape[0] < MIN_BLOCKS:
         return None
     image = mosaic(blocks)
-    shares = np.array([changed_share(image, quality) for quality in QUALITIES])
+    shares = np.array([changed_share(image, int(quality)) for quality in QUALITIES])
     if shares.min() > MAX_CHANGED:
         return None
     # Neighbouring qualities' steps differ by a fraction of a step, and
