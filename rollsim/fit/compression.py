@@ -18,7 +18,8 @@ quality, as libjpeg's and OpenCV's (:func:`rollsim.isp.jpeg_islow.quantisation_t
 Only what the codec left intact is read: blocks aligned with the frame's
 top-left corner (a JPEG's own grid; a crop that cuts the grid shows none),
 without a pixel at 0 or 255 in any channel (a clipped block's coefficients
-are off their multiples), on the luminance of colour frames (JPEG's Y,
+are off their multiples) and not flat (a flat block comes back flat under
+most tables), on the luminance of colour frames (JPEG's Y,
 Rec. 601 weights, rounded; its chroma is subsampled and not read).
 """
 
@@ -37,6 +38,9 @@ LUMA_WEIGHTS = np.array([0.299, 0.587, 0.114])
 # (blocks whose coefficients the rounding put near half a step; a colour
 # frame's luminance, recomputed from rounded RGB, is off by a fraction of a level).
 MAX_CHANGED = 0.02
+# More qualities than this leaving the blocks as they are: the blocks (nearly
+# flat, a level or two deep) do not tell the qualities apart.
+MAX_UNTOLD = 10
 # The fewest blocks that can tell, and the most read (spread evenly over the
 # frames' unclipped blocks: a round trip per quality costs their pixels).
 MIN_BLOCKS = 64
@@ -55,7 +59,8 @@ def luminance(frame: np.ndarray) -> np.ndarray:
 
 
 def unclipped_blocks(frames: Sequence[np.ndarray]) -> np.ndarray:
-    """The luminance of the frames' 8×8 blocks on their JPEG grid without a pixel at 0 or 255, uint8, (n, 8, 8).
+    """The luminance of the frames' 8×8 blocks on their JPEG grid without a pixel at 0 or 255, and not flat,
+    uint8, (n, 8, 8).
 
     At most :data:`MAX_BLOCKS`, taken evenly over the frames' blocks.
     """
@@ -68,7 +73,9 @@ def unclipped_blocks(frames: Sequence[np.ndarray]) -> np.ndarray:
         tiles = luminance(frame[:h, :w]).reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK).swapaxes(1, 2)
         raw = frame[:h, :w].reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK, -1).swapaxes(1, 2)
         clear = ~((raw <= 0) | (raw >= 255)).any(axis=(2, 3, 4))
-        blocks.append(tiles[clear])
+        # A flat block comes back flat under most tables: it tells nothing.
+        varied = np.ptp(tiles, axis=(2, 3)) > 0
+        blocks.append(tiles[clear & varied])
     if not blocks:
         return np.zeros((0, BLOCK, BLOCK), dtype=np.uint8)
     stack = np.concatenate(blocks)
@@ -93,8 +100,9 @@ def jpeg_quality(frames: Sequence[np.ndarray]) -> int | None:
     The quality whose round trip changes the fewest pixels of
     :data:`MIN_BLOCKS` or more unclipped blocks (the lowest of equals),
     where that is at most :data:`MAX_CHANGED` of them (see the module's
-    docstring); None where no quality's is, or too few blocks are clear of
-    the clips.
+    docstring); None where no quality's is, where more than
+    :data:`MAX_UNTOLD` qualities' are (the blocks do not tell them apart),
+    or where too few blocks are clear of the clips and not flat.
 
     Parameters
     ----------
@@ -106,7 +114,7 @@ def jpeg_quality(frames: Sequence[np.ndarray]) -> int | None:
         return None
     image = mosaic(blocks)
     shares = np.array([changed_share(image, int(quality)) for quality in QUALITIES])
-    if shares.min() > MAX_CHANGED:
+    if shares.min() > MAX_CHANGED or np.count_nonzero(shares <= MAX_CHANGED) > MAX_UNTOLD:
         return None
     # Neighbouring qualities' steps differ by a fraction of a step, and
     # coefficients of one or two steps (flat, low-contrast blocks) requantise
