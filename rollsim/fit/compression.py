@@ -38,9 +38,6 @@ LUMA_WEIGHTS = np.array([0.299, 0.587, 0.114])
 # (blocks whose coefficients the rounding put near half a step; a colour
 # frame's luminance, recomputed from rounded RGB, is off by a fraction of a level).
 MAX_CHANGED = 0.02
-# More qualities than this leaving the blocks as they are: the blocks (nearly
-# flat, a level or two deep) do not tell the qualities apart.
-MAX_UNTOLD = 10
 # The fewest blocks that can tell, and the most read (spread evenly over the
 # frames' unclipped blocks: a round trip per quality costs their pixels).
 MIN_BLOCKS = 64
@@ -70,7 +67,8 @@ def unclipped_blocks(frames: Sequence[np.ndarray]) -> np.ndarray:
         h, w = (frame.shape[0] // BLOCK) * BLOCK, (frame.shape[1] // BLOCK) * BLOCK
         if h == 0 or w == 0:
             continue
-        tiles = luminance(frame[:h, :w]).reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK).swapaxes(1, 2)
+        tiles = np.clip(np.rint(luminance(frame[:h, :w])), 0, 255).astype(np.uint8)
+        tiles = tiles.reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK).swapaxes(1, 2)
         raw = frame[:h, :w].reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK, -1).swapaxes(1, 2)
         clear = ~((raw <= 0) | (raw >= 255)).any(axis=(2, 3, 4))
         # A flat block comes back flat under most tables: it tells nothing.
@@ -81,7 +79,7 @@ def unclipped_blocks(frames: Sequence[np.ndarray]) -> np.ndarray:
     stack = np.concatenate(blocks)
     if stack.shape[0] > MAX_BLOCKS:
         stack = stack[np.linspace(0, stack.shape[0] - 1, MAX_BLOCKS).astype(np.int64)]
-    return np.clip(np.rint(stack), 0, 255).astype(np.uint8)
+    return stack
 
 
 def mosaic(blocks: np.ndarray) -> np.ndarray:
@@ -100,9 +98,8 @@ def jpeg_quality(frames: Sequence[np.ndarray]) -> int | None:
     The quality whose round trip changes the fewest pixels of
     :data:`MIN_BLOCKS` or more unclipped blocks (the lowest of equals),
     where that is at most :data:`MAX_CHANGED` of them (see the module's
-    docstring); None where no quality's is, where more than
-    :data:`MAX_UNTOLD` qualities' are (the blocks do not tell them apart),
-    or where too few blocks are clear of the clips and not flat.
+    docstring); None where no quality's is, or where too few blocks are
+    clear of the clips and not flat.
 
     Parameters
     ----------
@@ -114,7 +111,7 @@ def jpeg_quality(frames: Sequence[np.ndarray]) -> int | None:
         return None
     image = mosaic(blocks)
     shares = np.array([changed_share(image, int(quality)) for quality in QUALITIES])
-    if shares.min() > MAX_CHANGED or np.count_nonzero(shares <= MAX_CHANGED) > MAX_UNTOLD:
+    if shares.min() > MAX_CHANGED:
         return None
     # Neighbouring qualities' steps differ by a fraction of a step, and
     # coefficients of one or two steps (flat, low-contrast blocks) requantise
