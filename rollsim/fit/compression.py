@@ -11,9 +11,10 @@ table. The quality read is the one whose round trip changes the fewest
 pixels, where that leaves all but :data:`MAX_CHANGED` of them as they
 were: a neighbouring quality's steps differ by a fraction of a step, and
 the coefficients of flat, low-contrast blocks (one or two steps) come
-back alike under both, but not all of them. A
-camera app's tables are the IJG tables of ITU-T T.81 Annex K scaled for a
-quality, as libjpeg's and OpenCV's (:func:`rollsim.isp.jpeg_islow.quantisation_table`).
+back alike under both, but not all of them. The tables tried are the IJG
+tables of ITU-T T.81 Annex K scaled for a quality, as libjpeg and OpenCV
+write them (:func:`rollsim.isp.jpeg_islow.quantisation_table`); a camera's
+own tables read as none, and so do qualities from 95 (:data:`QUALITIES`).
 
 Only what the codec left intact is read: blocks aligned with the frame's
 top-left corner (a JPEG's own grid; a crop that cuts the grid shows none),
