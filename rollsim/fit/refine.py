@@ -489,11 +489,12 @@ def jpeg_estimate(scene: Scene) -> Estimate:
     """The JPEG quality the fitted scene renders through (:mod:`rollsim.fit.compression`), or why none."""
     jpeg = scene.effects.jpeg
     if jpeg is not None:
-        return Estimate(float(jpeg.quality), None, "", "the lowest IJG quality whose JPEG round trip leaves the "
-                        "frames' unclipped blocks as they are")
+        return Estimate(float(jpeg.quality), None, "", "the IJG quality whose JPEG round trip changes the fewest "
+                        "pixels of the frames' unclipped blocks")
     return Estimate(0.0, None, "", "rendered without JPEG", NOT_IDENTIFIED,
                     "no IJG quality's round trip leaves the frames as they are: not compressed, compressed nearly "
-                    "losslessly (quality 95 and above), or with the camera's own tables")
+                    "losslessly (quality 95 and above) or with the camera's own tables, or too few of the frames' "
+                    "blocks are unclipped and not flat")
 
 
 def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene,
