@@ -69,11 +69,12 @@ def test_nearly_lossless_qualities_are_not_read():
 def test_flat_blocks_tell_no_quality():
     # A black background lifted to one level (seed 1 camera 21 of `rollsim
     # bench fit-camera`): every unclipped block is flat, and comes back flat
-    # under most tables; read once as quality 1.
+    # under most tables (read with them, they give quality 1).
     frames = [np.full((240, 320), 1, np.uint8)] * 3
     assert unclipped_blocks(frames).shape == (0, 8, 8)
     assert jpeg_quality(frames) is None
-    # Blocks a level deep: most qualities leave them as they are.
+    # Lone spikes a level deep: every quality's round trip smooths some
+    # away (no quality changes 2 % or less of the pixels).
     rng = np.random.default_rng(8)
     shallow = [(1 + (rng.random((240, 320)) < 0.02)).astype(np.uint8) for _ in range(3)]
     assert jpeg_quality(shallow) is None

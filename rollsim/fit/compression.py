@@ -30,11 +30,10 @@ from typing import Sequence
 
 import numpy as np
 
+from rollsim.fit.channel import plane
 from rollsim.isp.jpeg import jpeg_round_trip
 
 BLOCK = 8
-# Rec. 601 luma weights: a JPEG's Y.
-LUMA_WEIGHTS = np.array([0.299, 0.587, 0.114])
 # The share of pixels a round trip at the frames' own quality may change
 # (blocks whose coefficients the rounding put near half a step; a colour
 # frame's luminance, recomputed from rounded RGB, is off by a fraction of a level).
@@ -50,12 +49,6 @@ MAX_BLOCKS = 4096
 QUALITIES = np.arange(1, 95)
 
 
-def luminance(frame: np.ndarray) -> np.ndarray:
-    """A frame's luminance as a JPEG codes it (8-bit levels, float): grey as is, RGB by Rec. 601."""
-    frame = np.asarray(frame, dtype=np.float64)
-    return frame @ LUMA_WEIGHTS if frame.ndim == 3 else frame
-
-
 def unclipped_blocks(frames: Sequence[np.ndarray]) -> np.ndarray:
     """The luminance of the frames' 8×8 blocks on their JPEG grid without a pixel at 0 or 255, and not flat,
     uint8, (n, 8, 8).
@@ -68,7 +61,9 @@ def unclipped_blocks(frames: Sequence[np.ndarray]) -> np.ndarray:
         h, w = (frame.shape[0] // BLOCK) * BLOCK, (frame.shape[1] // BLOCK) * BLOCK
         if h == 0 or w == 0:
             continue
-        tiles = np.clip(np.rint(luminance(frame[:h, :w])), 0, 255).astype(np.uint8)
+        # A JPEG's Y: grey as is, RGB by the Rec. 601 weights.
+        luma = plane(frame[:h, :w], "luminance") if frame.ndim == 3 else frame[:h, :w]
+        tiles = np.clip(np.rint(luma), 0, 255).astype(np.uint8)
         tiles = tiles.reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK).swapaxes(1, 2)
         raw = frame[:h, :w].reshape(h // BLOCK, BLOCK, w // BLOCK, BLOCK, -1).swapaxes(1, 2)
         clear = ~((raw <= 0) | (raw >= 255)).any(axis=(2, 3, 4))
