@@ -10,22 +10,25 @@ darkest) around them gives its disk.
 import numpy as np
 import pytest
 
-from rollsim.fit.measure import LedDisk, clear_background_block, disk_from_swing, find_led_region, halo_free
+from rollsim.fit.measure import LedDisk, clear_background_block, disk_from_swing, find_led_region, halo_free, \
+    lit_border_fraction
 from rollsim.fit.refine import moving_stripes
 
 PERIOD_ROWS = 16.0
 
 
-def _frames(shape, centre, radius, background, amplitude, seed=1, lamp=None, count=6, noise=3.0):
+def _frames(shape, centre, radius, background, amplitude, seed=1, lamp=None, count=6, noise=3.0, face=None):
     """8-bit frames of a striped LED disk on a flat background (each frame its own stripe phase),
-    with an optional static lamp (centre, radius, level) brighter than the LED."""
+    its face at ``face`` when OFF (default the background's level), with an optional static
+    lamp (centre, radius, level) brighter than the LED."""
     rng = np.random.default_rng(seed)
     yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
     inside = np.hypot(xx + 0.5 - centre[0], yy + 0.5 - centre[1]) <= radius
     frames = []
     for phase in rng.uniform(0, PERIOD_ROWS, count):
         on = ((yy + phase) % PERIOD_ROWS) < PERIOD_ROWS / 2
-        image = np.full(shape, float(background)) + amplitude * (inside & on)
+        image = np.where(inside, float(background if face is None else face), float(background))
+        image += amplitude * (inside & on)
         if lamp is not None:
             (lx, ly), lr, level = lamp
             image[np.hypot(xx + 0.5 - lx, yy + 0.5 - ly) <= lr] = level
@@ -35,19 +38,48 @@ def _frames(shape, centre, radius, background, amplitude, seed=1, lamp=None, cou
 
 
 def _region(frames, stripes):
-    stack = np.asarray(frames, dtype=np.float64)
-    return find_led_region(stack.max(axis=0), stack.min(axis=0), stack.mean(axis=0), 1.8, PERIOD_ROWS, stripes)
+    return find_led_region(np.asarray(frames, dtype=np.float64), 1.8, PERIOD_ROWS, stripes)
 
 
 def test_a_bright_background_is_not_an_led_filling_the_frame():
-    # A faint LED on a bright, noisy background (as JPEG'd colour frames show one).
-    frames = _frames((300, 400), (84.0, 200.0), 40.0, background=150, amplitude=20, noise=5.0)
+    # An LED whose face is dark when OFF, on a background brighter than half its ON level.
+    frames = _frames((300, 400), (84.0, 200.0), 40.0, background=150, amplitude=180, face=20, noise=5.0)
     assert _region(frames, None).disk is None  # the lit border alone reads as an LED filling the frame
     disk = _region(frames, moving_stripes(frames)).disk
     assert disk is not None
     assert disk.centre_x_px == pytest.approx(84.0, abs=3.0)
     assert disk.centre_y_px == pytest.approx(200.0, abs=3.0)
     assert disk.radius_px == pytest.approx(40.0, rel=0.1)
+
+
+@pytest.mark.parametrize("noise", [3.0, 10.0, 20.0])
+def test_pixel_noise_does_not_light_the_border(noise):
+    # A faint LED (stripes of 25 levels) on a background as bright as its face: the
+    # maximum of six frames' noise stands ~1.3 sigma above the background and the
+    # minimum as far below it, as far as the stripes reach at sigma 10 (seed 6
+    # camera 2 of the benchmark: 8-bit noise of ~10 levels, an LED 0.39 full scale).
+    frames = _frames((300, 400), (200.0, 150.0), 110.0, background=140, amplitude=25, noise=noise)
+    stack = np.asarray(frames, dtype=np.float64)
+    assert lit_border_fraction(stack, PERIOD_ROWS) < 0.05
+    disk = _region(frames, None).disk
+    assert disk is not None
+    assert disk.centre_x_px == pytest.approx(200.0, abs=5.0) and disk.centre_y_px == pytest.approx(150.0, abs=5.0)
+
+
+def test_the_border_envelope_is_the_whole_frames_box_average():
+    # Computed on strips along the edges, it equals the whole frame's box average, maximum over
+    # frames and over a stripe period of rows, read on the border.
+    from scipy.ndimage import maximum_filter1d, uniform_filter
+
+    from rollsim.fit.measure import BORDER_BOX_COLUMNS, BORDER_BOX_ROWS, _border_envelope
+
+    stack = np.random.default_rng(5).uniform(0, 255, (4, 90, 70))
+    for period in (3.0, 16.0, 40.0, 400.0):
+        box = (1, max(1, int(BORDER_BOX_ROWS * period)) | 1, BORDER_BOX_COLUMNS)
+        whole = uniform_filter(stack, box, mode="nearest").max(axis=0)
+        whole = maximum_filter1d(whole, size=max(1, int(np.ceil(period))) | 1, axis=0, mode="nearest")
+        border = np.concatenate([whole[0], whole[-1], whole[1:-1, 0], whole[1:-1, -1]])
+        np.testing.assert_allclose(_border_envelope(stack, period), border, rtol=1e-12)
 
 
 def test_a_brighter_lamp_does_not_draw_the_disk():
@@ -68,6 +100,18 @@ def test_a_crop_the_led_fills_across_keeps_its_rows_and_background():
     assert disk.centre_y_px == pytest.approx(250.0, abs=3.0)
     assert disk.radius_px == pytest.approx(160.0, rel=0.05)
     assert region.block is not None and region.block[0].start >= 250 + 160  # the rows below the LED
+
+
+def test_a_crop_the_led_spans_keeps_its_rim_rows_within_half_a_period():
+    # 15 rows of background above the LED and 25 below, with a stripe period of 16 rows: the
+    # swing's rows are bridged across dark stripes, not widened by half a period (which swallowed
+    # the rows above it, seed 3 camera 16 of the benchmark, a 49-column crop).
+    frames = _frames((700, 30), (15.0, 345.0), 330.0, background=60, amplitude=80)
+    stack = np.asarray(frames, dtype=np.float64)
+    disk = disk_from_swing(stack.max(axis=0), stack.min(axis=0), moving_stripes(frames), PERIOD_ROWS)
+    assert disk is not None
+    assert disk.centre_y_px == pytest.approx(345.0, abs=1.5)
+    assert disk.radius_px == pytest.approx(330.0, abs=1.5)
 
 
 def test_an_led_filling_the_frame_has_no_disk():

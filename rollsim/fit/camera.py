@@ -190,10 +190,11 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     shape = frames[0].shape
     row_time_s, row_time_sd = row_time
     period = 2.0 / (clock_hz * row_time_s)
-    brightest = np.max(frames, axis=0)
-    mean_frame = np.mean(frames, axis=0)
+    stack = np.asarray(frames, dtype=np.float64)
+    brightest, mean_frame = stack.max(axis=0), stack.mean(axis=0)
     if region is None:
-        region = find_led_region(brightest, np.min(frames, axis=0), mean_frame, HALO_RADII, period, stripes_at)
+        region = find_led_region(stack, HALO_RADII, period, stripes_at)
+    del stack
     rows, cols = region.band
     if rows.stop - rows.start < MIN_BAND_PERIODS * period:
         raise ValueError(f"the LED's rows hold {(rows.stop - rows.start) / period:.1f} stripe periods "

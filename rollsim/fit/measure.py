@@ -83,6 +83,11 @@ def find_led_disk(brightest: np.ndarray, background: float) -> LedDisk:
 # The LED fills the frame when this much of the frame's border is lit (a
 # disk inside the frame lights none of it).
 FILLS_BORDER_FRACTION = 0.5
+# The box the frames are averaged over before the border's lit pixels are
+# read (:func:`_border_envelope`): a quarter of a stripe period of rows (within
+# an ON stripe's half period, so its level is kept) by 9 columns.
+BORDER_BOX_ROWS = 0.25
+BORDER_BOX_COLUMNS = 9
 # The row profiles keep the rows this far from the background to the LED's peak.
 CORE_FRACTION = 0.6
 # A background block smaller than this (pixels) gives no background statistic.
@@ -110,21 +115,57 @@ class LedRegion:
     block: tuple[slice, slice] | None
 
 
-def lit_border_fraction(brightest: np.ndarray, darkest: np.ndarray, period_rows: float) -> float:
-    """Fraction of the frame's border pixels lit: the brightest frame's maximum
-    over a stripe period of rows (a row the stripes left dark in every frame
-    is still the LED's) above half-way from the darkest frame's 1st
-    percentile (OFF rows, or the background) to the LED's peak."""
+def _border_envelope(stack: np.ndarray, period_rows: float) -> np.ndarray:
+    """The frame's border pixels (top row, bottom row, then the left and right
+    columns between them) of the brightest envelope: each frame averaged over
+    a box of :data:`BORDER_BOX_ROWS` of a stripe period by
+    :data:`BORDER_BOX_COLUMNS`, the pixelwise maximum over frames, then the
+    maximum over a stripe period of rows (as :func:`lit_border_fraction`).
+
+    Averaging before the maximum keeps pixel noise from lighting the border:
+    the maximum of N noisy frames stands above their mean by about
+    √(2 ln N) noise σ, as much as a faint LED's stripes stand above the
+    background. Only strips along the edges are averaged (the whole frame's
+    box would cost seconds on 4K frames); the values are those of the whole
+    frame's.
+    """
+    from scipy.ndimage import maximum_filter1d, uniform_filter
+
+    h, w = stack.shape[1:]
+    size = max(1, int(np.ceil(period_rows))) | 1
+    box = (1, max(1, int(BORDER_BOX_ROWS * period_rows)) | 1, BORDER_BOX_COLUMNS)
+    # Rows from an edge that its line's envelope reaches, through the box.
+    reach = min(h, size // 2 + box[1] // 2 + 1)
+    strip = min(w, box[2] // 2 + 1)
+
+    def across(rows: np.ndarray) -> np.ndarray:  # a top (or flipped bottom) strip: its first row's envelope
+        return uniform_filter(rows, box, mode="nearest").max(axis=0)[: size // 2 + 1].max(axis=0)
+
+    def down(cols: np.ndarray) -> np.ndarray:  # a left (or flipped right) strip: its first column's envelope
+        line = uniform_filter(cols, box, mode="nearest").max(axis=0)[:, 0]
+        return maximum_filter1d(line, size=size, mode="nearest")
+
+    return np.concatenate([across(stack[:, :reach]), across(stack[:, ::-1][:, :reach]),
+                           down(stack[:, :, :strip])[1:-1], down(stack[:, :, ::-1][:, :, :strip])[1:-1]])
+
+
+def lit_border_fraction(stack: np.ndarray, period_rows: float) -> float:
+    """Fraction of the frame's border pixels lit: the brightest envelope
+    (:func:`_border_envelope`: a row the stripes left dark in every frame is
+    still the LED's) above half-way from the darkest frame's 1st percentile
+    (OFF rows, or the background) to the LED's peak.
+
+    ``stack`` holds the frames (N, H, W).
+    """
     from scipy.ndimage import maximum_filter1d, median_filter
 
+    brightest = stack.max(axis=0)
     envelope = maximum_filter1d(brightest, size=max(1, int(np.ceil(period_rows))) | 1, axis=0, mode="nearest")
     # The LED's peak, robust to a hot pixel: the largest 3×3 median.
-    low, high = float(np.percentile(darkest, 1)), float(median_filter(envelope, size=3).max())
+    low, high = float(np.percentile(stack.min(axis=0), 1)), float(median_filter(envelope, size=3).max())
     if not high > low:
         return 0.0
-    lit = envelope > 0.5 * (low + high)
-    border = np.concatenate([lit[0], lit[-1], lit[1:-1, 0], lit[1:-1, -1]])
-    return float(border.mean())
+    return float(np.mean(_border_envelope(stack, period_rows) > 0.5 * (low + high)))
 
 
 def background_block(shape: tuple[int, int], disk: LedDisk, margin_radii: float) -> tuple[slice, slice] | None:
@@ -222,17 +263,25 @@ def clear_background_block(mean_frame: np.ndarray, disk: LedDisk, halo_radii: fl
 FLAT_SWING = 0.1
 
 
-def _half_run(values: np.ndarray, at: int) -> tuple[int, int]:
+def _half_run(values: np.ndarray, at: int, bridge: int = 1) -> tuple[int, int]:
     """The run of ``values`` above half-way from their 5th percentile to their
     peak that holds index ``at`` (or the peak, when ``at`` is not above it): [start, stop).
 
     All of them when they lie within :data:`FLAT_SWING` of their peak: all
     lit (an LED that fills the crop), where half-way would split their noise.
+    Gaps shorter than ``bridge`` between values above half-way are bridged
+    (an LED's rows the stripes left dark in every frame); the run's ends stay
+    where the values cross half-way.
     """
     low, high = float(np.percentile(values, 5)), float(values.max())
     if high - low <= FLAT_SWING * high:
         return 0, values.size
     above = values > 0.5 * (low + high)
+    if bridge > 1:
+        index = np.arange(values.size)
+        previous = np.maximum.accumulate(np.where(above, index, -1))
+        following = np.minimum.accumulate(np.where(above, index, values.size)[::-1])[::-1]
+        above |= (previous >= 0) & (following < values.size) & (following - previous - 1 < bridge)
     at = at if 0 <= at < values.size and above[at] else int(np.argmax(values))
     below = np.flatnonzero(~above)
     start = int(below[below < at].max()) + 1 if np.any(below < at) else 0
@@ -247,20 +296,17 @@ def disk_from_swing(brightest: np.ndarray, darkest: np.ndarray, stripes: tuple[s
     ``stripes`` are the rows and the centre column where the stripes move
     between frames (:func:`decoder.stripe_region.stripe_region`). Across
     those rows the swing's half-height run of columns is the LED's width;
-    down those columns (each row's swing the most over a stripe period, so
-    that a row the stripes left dark counts), its run of rows is its height.
+    down those columns (gaps under a stripe period bridged, so that rows the
+    stripes left dark in every frame count), its run of rows is its height.
     A run cut by the frame's edge gives no extent; None when both are cut
     (the LED fills the frame, or the crop).
     """
-    from scipy.ndimage import maximum_filter1d
-
     swing = np.asarray(brightest, dtype=np.float64) - np.asarray(darkest, dtype=np.float64)
     rows, centre_col = stripes
     h, w = swing.shape
     x0, x1 = _half_run(swing[rows].mean(axis=0), int(centre_col))
-    down = maximum_filter1d(swing[:, x0:x1].mean(axis=1), size=max(1, int(np.ceil(period_rows))) | 1,
-                            mode="nearest")
-    y0, y1 = _half_run(down, (rows.start + rows.stop) // 2)
+    y0, y1 = _half_run(swing[:, x0:x1].mean(axis=1), (rows.start + rows.stop) // 2,
+                       bridge=int(np.ceil(period_rows)) + 1)
     clear_x, clear_y = x0 > 0 and x1 < w, y0 > 0 and y1 < h
     if not (clear_x or clear_y):
         return None
@@ -286,12 +332,12 @@ def _disk_agrees(disk: LedDisk | None, stripes: tuple[slice, float], period_rows
             and abs(disk.centre_x_px - centre_col) <= disk.radius_px)
 
 
-def find_led_region(brightest: np.ndarray, darkest: np.ndarray, mean_frame: np.ndarray, halo_radii: float,
-                    period_rows: float, stripes: tuple[slice, float] | None = None) -> LedRegion:
+def find_led_region(stack: np.ndarray, halo_radii: float, period_rows: float,
+                    stripes: tuple[slice, float] | None = None) -> LedRegion:
     """The LED's disk (or that it fills the frame), its central band and a background block.
 
-    ``brightest``, ``darkest`` and ``mean_frame`` are the frames' pixelwise
-    maximum, minimum and mean; ``period_rows`` is the stripe period (rows).
+    ``stack`` holds the frames (N, H, W); ``period_rows`` is the stripe
+    period (rows).
     ``stripes`` (rows, centre column: where the stripes move between
     frames) checks the answer: a bright background lights the border as
     an LED filling the frame would, and a brighter blob than the LED draws
@@ -303,9 +349,10 @@ def find_led_region(brightest: np.ndarray, darkest: np.ndarray, mean_frame: np.n
     ValueError
         No LED: nothing is brighter than the rest.
     """
+    brightest, darkest, mean_frame = stack.max(axis=0), stack.min(axis=0), stack.mean(axis=0)
     shape = brightest.shape
     h, w = shape
-    fills = lit_border_fraction(brightest, darkest, period_rows) >= FILLS_BORDER_FRACTION
+    fills = lit_border_fraction(stack, period_rows) >= FILLS_BORDER_FRACTION
     background = float(np.median(mean_frame))
     disk = None if fills else find_led_disk(brightest, background)
     if stripes is not None and not _disk_agrees(disk, stripes, period_rows):
