@@ -123,9 +123,10 @@ def _border_envelope(stack: np.ndarray, period_rows: float) -> np.ndarray:
     maximum over a stripe period of rows (as :func:`lit_border_fraction`).
 
     Averaging before the maximum keeps pixel noise from lighting the border:
-    the maximum of N noisy frames stands above their mean by about
-    √(2 ln N) noise σ, as much as a faint LED's stripes stand above the
-    background. Only strips along the edges are averaged (the whole frame's
+    the maximum of six noisy frames stands about 1.3 noise σ above their
+    mean (the expected greatest of six normal draws), and the darkest
+    frame stands as far below it: as far as a faint LED's stripes reach above
+    the background. Only strips along the edges are averaged (the whole frame's
     box would cost seconds on 4K frames); the values are those of the whole
     frame's.
     """
@@ -263,25 +264,17 @@ def clear_background_block(mean_frame: np.ndarray, disk: LedDisk, halo_radii: fl
 FLAT_SWING = 0.1
 
 
-def _half_run(values: np.ndarray, at: int, bridge: int = 1) -> tuple[int, int]:
+def _half_run(values: np.ndarray, at: int) -> tuple[int, int]:
     """The run of ``values`` above half-way from their 5th percentile to their
     peak that holds index ``at`` (or the peak, when ``at`` is not above it): [start, stop).
 
     All of them when they lie within :data:`FLAT_SWING` of their peak: all
     lit (an LED that fills the crop), where half-way would split their noise.
-    Gaps shorter than ``bridge`` between values above half-way are bridged
-    (an LED's rows the stripes left dark in every frame); the run's ends stay
-    where the values cross half-way.
     """
     low, high = float(np.percentile(values, 5)), float(values.max())
     if high - low <= FLAT_SWING * high:
         return 0, values.size
     above = values > 0.5 * (low + high)
-    if bridge > 1:
-        index = np.arange(values.size)
-        previous = np.maximum.accumulate(np.where(above, index, -1))
-        following = np.minimum.accumulate(np.where(above, index, values.size)[::-1])[::-1]
-        above |= (previous >= 0) & (following < values.size) & (following - previous - 1 < bridge)
     at = at if 0 <= at < values.size and above[at] else int(np.argmax(values))
     below = np.flatnonzero(~above)
     start = int(below[below < at].max()) + 1 if np.any(below < at) else 0
@@ -296,17 +289,20 @@ def disk_from_swing(brightest: np.ndarray, darkest: np.ndarray, stripes: tuple[s
     ``stripes`` are the rows and the centre column where the stripes move
     between frames (:func:`decoder.stripe_region.stripe_region`). Across
     those rows the swing's half-height run of columns is the LED's width;
-    down those columns (gaps under a stripe period bridged, so that rows the
-    stripes left dark in every frame count), its run of rows is its height.
+    down those columns (each row's swing the most over a stripe period, so
+    that a row the stripes left dark counts), its run of rows is its height.
     A run cut by the frame's edge gives no extent; None when both are cut
     (the LED fills the frame, or the crop).
     """
+    from scipy.ndimage import maximum_filter1d
+
     swing = np.asarray(brightest, dtype=np.float64) - np.asarray(darkest, dtype=np.float64)
     rows, centre_col = stripes
     h, w = swing.shape
     x0, x1 = _half_run(swing[rows].mean(axis=0), int(centre_col))
-    y0, y1 = _half_run(swing[:, x0:x1].mean(axis=1), (rows.start + rows.stop) // 2,
-                       bridge=int(np.ceil(period_rows)) + 1)
+    down = maximum_filter1d(swing[:, x0:x1].mean(axis=1), size=max(1, int(np.ceil(period_rows))) | 1,
+                            mode="nearest")
+    y0, y1 = _half_run(down, (rows.start + rows.stop) // 2)
     clear_x, clear_y = x0 > 0 and x1 < w, y0 > 0 and y1 < h
     if not (clear_x or clear_y):
         return None
