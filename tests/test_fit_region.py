@@ -73,8 +73,9 @@ def test_the_border_envelope_is_the_whole_frames_box_average():
 
     from rollsim.fit.measure import BORDER_BOX_COLUMNS, BORDER_BOX_ROWS, _border_envelope
 
-    stack = np.random.default_rng(5).uniform(0, 255, (4, 90, 70))
-    for period in (3.0, 16.0, 40.0, 400.0):
+    rng = np.random.default_rng(5)
+    for stack, period in [(rng.uniform(0, 255, (4, 90, 70)), p) for p in (3.0, 16.0, 40.0, 400.0)] + \
+            [(rng.uniform(0, 255, (3, 200, 6)), 16.0)]:  # a crop narrower than the box
         box = (1, max(1, int(BORDER_BOX_ROWS * period)) | 1, BORDER_BOX_COLUMNS)
         whole = uniform_filter(stack, box, mode="nearest").max(axis=0)
         whole = maximum_filter1d(whole, size=max(1, int(np.ceil(period))) | 1, axis=0, mode="nearest")

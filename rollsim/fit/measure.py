@@ -1,14 +1,14 @@
 """Measurements on real frames: the LED's disk, the background, and the noise.
 
-Every function takes 8-bit grey frames as float arrays (H, W) and returns
-numbers in 8-bit levels or pixels; none of them knows the camera. The LED is
-found on the brightest frame of the set (the pixelwise maximum, where the
-stripes of different frames fill each other in), its disk from the chord
-each row cuts: a circle of centre (cx, cy) and radius R cuts the chord
-w(y) with (w/2)² = R² − (y − cy)², which is linear in (R² − cy², cy) once
-y² is moved to the left. Temporal noise comes from differences of
-consecutive frames (fixed patterns cancel), spatial noise from the mean
-frame's flat background.
+Every function takes 8-bit grey frames as float arrays (H, W), or a stack
+of them (N, H, W), and returns numbers in 8-bit levels or pixels; none of
+them knows the camera. The LED is found on the brightest frame of the set
+(the pixelwise maximum, where the stripes of different frames fill each
+other in), its disk from the chord each row cuts: a circle of centre
+(cx, cy) and radius R cuts the chord w(y) with (w/2)² = R² − (y − cy)²,
+which is linear in (R² − cy², cy) once y² is moved to the left. Temporal
+noise comes from differences of consecutive frames (fixed patterns
+cancel), spatial noise from the mean frame's flat background.
 """
 
 from __future__ import annotations
