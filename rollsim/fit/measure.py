@@ -150,20 +150,20 @@ def _border_envelope(stack: np.ndarray, period_rows: float) -> np.ndarray:
                            down(stack[:, :, :strip])[1:-1], down(stack[:, :, ::-1][:, :, :strip])[1:-1]])
 
 
-def lit_border_fraction(stack: np.ndarray, period_rows: float) -> float:
+def lit_border_fraction(stack: np.ndarray, brightest: np.ndarray, darkest: np.ndarray, period_rows: float) -> float:
     """Fraction of the frame's border pixels lit: the brightest envelope
     (:func:`_border_envelope`: a row the stripes left dark in every frame is
     still the LED's) above half-way from the darkest frame's 1st percentile
     (OFF rows, or the background) to the LED's peak.
 
-    ``stack`` holds the frames (N, H, W).
+    ``stack`` holds the frames (N, H, W); ``brightest`` and ``darkest`` are
+    its pixelwise maximum and minimum.
     """
     from scipy.ndimage import maximum_filter1d, median_filter
 
-    brightest = stack.max(axis=0)
     envelope = maximum_filter1d(brightest, size=max(1, int(np.ceil(period_rows))) | 1, axis=0, mode="nearest")
     # The LED's peak, robust to a hot pixel: the largest 3×3 median.
-    low, high = float(np.percentile(stack.min(axis=0), 1)), float(median_filter(envelope, size=3).max())
+    low, high = float(np.percentile(darkest, 1)), float(median_filter(envelope, size=3).max())
     if not high > low:
         return 0.0
     return float(np.mean(_border_envelope(stack, period_rows) > 0.5 * (low + high)))
@@ -348,7 +348,7 @@ def find_led_region(stack: np.ndarray, halo_radii: float, period_rows: float,
     brightest, darkest, mean_frame = stack.max(axis=0), stack.min(axis=0), stack.mean(axis=0)
     shape = brightest.shape
     h, w = shape
-    fills = lit_border_fraction(stack, period_rows) >= FILLS_BORDER_FRACTION
+    fills = lit_border_fraction(stack, brightest, darkest, period_rows) >= FILLS_BORDER_FRACTION
     background = float(np.median(mean_frame))
     disk = None if fills else find_led_disk(brightest, background)
     if stripes is not None and not _disk_agrees(disk, stripes, period_rows):
