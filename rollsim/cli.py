@@ -502,7 +502,8 @@ def cmd_fit_camera(args) -> int:
     from decoder import FrameReadError, RowTimeError, read_frame
 
     from rollsim.stages.decode import frame_pixel_limit
-    from rollsim.fit import compare, fit_camera
+    from rollsim.fit import Known, compare, fit_camera
+    from rollsim.fit.tone import NAMED_GAMMAS
     from rollsim.fit.report import FILES, fit_outputs
     from rollsim.plumbing.outputs import check_directory_files, write_files
     from rollsim.scene import load_scene
@@ -511,6 +512,8 @@ def cmd_fit_camera(args) -> int:
         raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
     if args.pattern != "square":
         raise RollsimError(f"--pattern = {args.pattern!r}: only 'square' is fitted")
+    if args.exposure_us is not None and not (math.isfinite(args.exposure_us) and args.exposure_us > 0):
+        raise RollsimError(f"--exposure-us = {args.exposure_us}: must be a finite number > 0")
     video = _input_video(args.frames)
     paths = [] if video is not None else _png_paths(args.frames)
     if video is None and len(paths) < 2:
@@ -542,7 +545,8 @@ def cmd_fit_camera(args) -> int:
     try:
         fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
                          progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True),
-                         recording=recording, frame_rate_hz=frame_rate_hz)
+                         recording=recording, frame_rate_hz=frame_rate_hz,
+                         known=Known(args.exposure_us, None if args.tone is None else NAMED_GAMMAS[args.tone]))
         comparison = compare(frames, fit)
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
@@ -991,6 +995,12 @@ def _add_pixel_commands(sub) -> None:
     _add_video_input(p, f"{VIDEO_FIT_FRAMES}")
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
     p.add_argument("--pattern", choices=["square"], default="square", help="what the LED sends (default square)")
+    p.add_argument("--exposure-us", type=float, default=None, metavar="US",
+                   help="the camera's exposure in us, where known (set by hand, or a still's EXIF ExposureTime): "
+                        "held, not fitted")
+    p.add_argument("--tone", choices=["linear", "srgb"], default=None,
+                   help="the camera's tone curve, where known (linear: raw or machine-vision output; srgb: a "
+                        "phone's or webcam's): held, not fitted")
     p.add_argument("--scene", default="paper-geometric",
                    help="base scene whose optics, LED geometry and distance are kept (default paper-geometric)")
     p.add_argument("--iterations", type=_non_negative_int, default=4,
@@ -1186,6 +1196,9 @@ def _add_bench_commands(sub) -> None:
     p.add_argument("--video", action="store_true",
                    help="record each camera's frames as a phone's H.264 video (17 Mb/s at 1080p30, the same "
                         "bits per pixel for other sizes), and fit them as such")
+    p.add_argument("--known", action="append", choices=["exposure", "tone"], default=[],
+                   help="tell the fit each hidden camera's exposure or tone curve, as a user who knows it does "
+                        "(fit-camera --exposure-us, --tone); repeatable")
     p.add_argument("--max-height", type=_positive_int, default=2160,
                    help="largest frame height drawn, px (default 2160; smaller for a quick check)")
     p.add_argument("--workers", type=_workers, default=1, help="cameras fitted in parallel (default 1: one core)")

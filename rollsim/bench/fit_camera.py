@@ -241,14 +241,17 @@ def stripe_contrast_8bit(cam: HiddenCamera) -> float:
     return max((float(np.ptp(f)) for f in folds if f is not None), default=0.0)
 
 
-def run_camera(cam: HiddenCamera, video: bool = False) -> dict:
+def run_camera(cam: HiddenCamera, video: bool = False, known: Sequence[str] = ()) -> dict:
     """Render, fit and compare one hidden camera; its row of the benchmark.
 
     ``video``: the frames are recorded as a phone's video (:func:`video_recording`),
     and the fit is told the encoding, as a video file's header tells it.
+    ``known``: what the fit is told of the camera, as a user who knows it
+    tells it (``exposure``, ``tone``; :class:`rollsim.fit.camera.Known`).
     """
     from rollsim.errors import RollsimError
-    from rollsim.fit import compare, fit_camera
+    from rollsim.fit import Known, compare, fit_camera
+    from rollsim.fit.tone import NAMED_GAMMAS
     from rollsim.render import render_frames
     from rollsim.scene import load_scene
 
@@ -260,8 +263,10 @@ def run_camera(cam: HiddenCamera, video: bool = False) -> dict:
     frames = [np.asarray(im) for im in images]
     started = time.perf_counter()
     try:
+        told = Known(scene.camera.exposure_us if "exposure" in known else None,
+                     NAMED_GAMMAS["srgb" if cam.srgb else "linear"] if "tone" in known else None)
         fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []), recording=recording,
-                         frame_rate_hz=scene.camera.frame_rate_hz if video else None)
+                         frame_rate_hz=scene.camera.frame_rate_hz if video else None, known=told)
         seconds = time.perf_counter() - started
         comparison = compare(frames, fit)
     except (ValueError, RollsimError) as exc:  # a refusal (no square wave), or a fault the table shows
@@ -321,7 +326,7 @@ def misses(row: dict) -> list[str]:
     return out
 
 
-def summarise(rows: Sequence[dict], seed: int, video: bool = False) -> dict:
+def summarise(rows: Sequence[dict], seed: int, video: bool = False, known: Sequence[str] = ()) -> dict:
     """Counts against each target, and the misses."""
     counted = [r for r in rows if r["readable"]]
     fitted = [r for r in counted if r.get("fitted")]
@@ -329,7 +334,7 @@ def summarise(rows: Sequence[dict], seed: int, video: bool = False) -> dict:
     meet = {name: sum(1 for r in fitted if name not in misses(r))
             for name in ("row time", "exposure", "noise", "correlation")}
     return {
-        "seed": seed, "video": video, "cameras": len(rows), "counted": len(counted), "fitted": len(fitted),
+        "seed": seed, "video": video, "known": sorted(known), "cameras": len(rows), "counted": len(counted), "fitted": len(fitted),
         "fitted_fraction": len(fitted) / len(counted) if counted else None,
         "within_target": meet, "all_targets": sum(1 for r in fitted if not misses(r)),
         "median_seconds": float(np.median(times)) if times else None,
@@ -343,23 +348,23 @@ def summarise(rows: Sequence[dict], seed: int, video: bool = False) -> dict:
 
 
 def run_bench(seed: int, cameras: int, workers: int = 1, max_height_px: int = 2160, progress=None,
-              video: bool = False) -> dict:
+              video: bool = False, known: Sequence[str] = ()) -> dict:
     """Draw, render, fit and compare ``cameras`` hidden cameras; the rows and the summary
-    (``video``: recorded as a phone's video, :func:`run_camera`)."""
+    (``video``: recorded as a phone's video; ``known``: what the fit is told; :func:`run_camera`)."""
     drawn = draw_cameras(seed, cameras, max_height_px)
     rows = []
     if workers > 1:
         with ProcessPoolExecutor(workers) as pool:
-            for row in pool.map(functools.partial(run_camera, video=video), drawn):
+            for row in pool.map(functools.partial(run_camera, video=video, known=tuple(known)), drawn):
                 rows.append(row)
                 if progress:
                     progress(row)
     else:
         for cam in drawn:
-            rows.append(run_camera(cam, video))
+            rows.append(run_camera(cam, video, tuple(known)))
             if progress:
                 progress(rows[-1])
-    return {"rows": rows, "summary": summarise(rows, seed, video)}
+    return {"rows": rows, "summary": summarise(rows, seed, video, known)}
 
 
 def _pct(x) -> str:
@@ -393,6 +398,8 @@ def format_summary(s: dict) -> str:
     frac = "n/a" if s["fitted_fraction"] is None else f"{100 * s['fitted_fraction']:.0f} %"
     median = "n/a" if s["median_seconds"] is None else f"{s['median_seconds']:.1f} s"
     recorded = " recorded as H.264 video (a phone's 17 Mb/s at 1080p30, per pixel)" if s.get("video") else ""
+    if s.get("known"):
+        recorded += f", the fit told each one's {' and '.join(s['known'])}"
     return (f"seed {s['seed']}: {s['cameras']} cameras{recorded}, {s['counted']} with a readable square wave, "
             f"{s['fitted']} fitted ({frac}; target ≥ 90 %); of the fitted: row time within 0.5 % {meet['row time']}, "
             f"exposure within 10 % (15 % saturated) {meet['exposure']}, temporal noise within 20 % {meet['noise']}, "
@@ -413,7 +420,8 @@ def main(args) -> int:
             print(f"rollsim: bench fit-camera: camera {c['index']} ({c['width_px']}x{c['height_px']}): {state}",
                   file=sys.stderr, flush=True)
 
-    result = run_bench(args.seed, args.cameras, args.workers, args.max_height, progress, video=args.video)
+    result = run_bench(args.seed, args.cameras, args.workers, args.max_height, progress, video=args.video,
+                       known=sorted(set(args.known)))
     print(format_rows(result["rows"]))
     print(format_summary(result["summary"]))
     if args.json:

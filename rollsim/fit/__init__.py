@@ -7,7 +7,8 @@ scene (saying which), and makes a scene of them; :func:`compare` renders
 that scene beside the frames.
 """
 
+from rollsim.fit.camera import Known
 from rollsim.fit.check import Comparison, compare
 from rollsim.fit.refine import CameraFit, fit_camera
 
-__all__ = ["CameraFit", "Comparison", "compare", "fit_camera"]
+__all__ = ["CameraFit", "Comparison", "Known", "compare", "fit_camera"]

@@ -52,15 +52,36 @@ PROFILE_MIN_VARIATION = 0.05
 # The LED's halo (blur, glare) reaches this many radii from its centre: the background lies beyond.
 HALO_RADII = 1.8
 
-FRAMES, BASE, NOT_IDENTIFIED = "frames", "base scene", "not identified"
+FRAMES, BASE, NOT_IDENTIFIED, GIVEN = "frames", "base scene", "not identified", "given"
+
+
+@dataclass(frozen=True)
+class Known:
+    """What the user knows of the camera and tells the fit: held, not fitted.
+
+    Attributes
+    ----------
+    exposure_us : float, optional
+        The exposure, µs (a camera set by hand, or a still's EXIF
+        ExposureTime). The stripes tell it only up to whole stripe periods
+        and the reflection E ↔ P − E; told, it picks among those and is
+        held through the refinement.
+    tone_gamma : float, optional
+        The tone curve's exponent (:mod:`rollsim.fit.tone`: 1 linear, 2.4
+        sRGB), where the frames' noise and stripes tell it poorly.
+    """
+
+    exposure_us: float | None = None
+    tone_gamma: float | None = None
 
 
 @dataclass(frozen=True)
 class Estimate:
     """One fitted quantity: value, one-sigma uncertainty (None: not known), unit, how, and its source.
 
-    ``source`` is ``frames``, ``base scene`` or ``not identified``; ``reason``
-    says why a quantity is not from the frames.
+    ``source`` is ``frames``, ``base scene``, ``not identified`` or ``given``
+    (by the user: :class:`Known`); ``reason`` says why a quantity is not
+    from the frames.
     """
 
     value: float
@@ -171,7 +192,8 @@ MIN_BAND_PERIODS = 2.0
 
 def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float],
             region: LedRegion | None = None, start: StripeFit | None = None,
-            stripes_at: tuple[slice, float] | None = None, binning: tuple[int, int] | None = None) -> Measured:
+            stripes_at: tuple[slice, float] | None = None, binning: tuple[int, int] | None = None,
+            tone_gamma: float | None = None) -> Measured:
     """The fit's statistics of a set of frames (see the module docstring, steps 1–5).
 
     ``row_time`` is the row time and its uncertainty (s, s), estimated first
@@ -182,7 +204,9 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     frames) checks the region found (:func:`rollsim.fit.measure.find_led_region`).
     ``binning`` (k, offset) skips its detection (:func:`rollsim.fit.binning.detect_binning`
     on ``frames``): colour frames' is seen on their luminance, rendered
-    frames' is what was rendered. A ValueError says why frames cannot be
+    frames' is what was rendered. ``tone_gamma`` (given by the user) is the
+    tone curve's exponent the stripes are fitted with, instead of the one
+    the noise tells. A ValueError says why frames cannot be
     measured: among others, an LED whose band holds fewer than
     :data:`MIN_BAND_PERIODS` stripe periods (a colour plane's fit passes
     that plane over, :func:`rollsim.fit.refine.measured_planes`).
@@ -205,9 +229,10 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     levels, variances = level_noise_pairs(frames, rows, cols)
     keep = unclipped(levels)
     # The stripes' shape tells the tone curve poorly (it trades against the
-    # exposure and the smoothing); the noise tells linear from sRGB where it
-    # can. Rendered frames keep the start's.
-    gamma = tone_from_noise(levels[keep], variances[keep]) if start is None else None
+    # exposure and the smoothing): a curve the user knows is taken, else the
+    # noise tells linear from sRGB where it can. Rendered frames keep the start's.
+    gamma = None if start is not None else tone_gamma if tone_gamma is not None else (
+        tone_from_noise(levels[keep], variances[keep]))
     stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning,
                           gamma=gamma)
     if start is None and binning == (1, 0):
@@ -439,10 +464,48 @@ def exposure_choices(m: Measured, base: Scene) -> list[ExposureChoice]:
     return [c for _, c in sorted(ranked, key=lambda item: item[0])]
 
 
+def given_exposure_choice(m: Measured, exposure_rows: float) -> tuple[ExposureChoice, float]:
+    """The exposure the user gave (rows), with the linear levels of the branch nearest it, and how far
+    that branch lies (rows).
+
+    Of the exposures the stripes allow (:func:`exposure_branches`: whole
+    periods, any number, and the reflection), the nearest to the one given carries the
+    ON and OFF levels that make the frames' stripes; the refinement then
+    holds the exposure given and moves the levels to it. A branch far from
+    the exposure given (more than a row or so) says the stripes' edges read
+    another exposure: the camera's, or the value given, is not what it
+    seems.
+    """
+    s, period = m.stripes, m.stripes_period_rows
+    branches = []
+    for reflected, (e, a, b) in branch_starts(s.exposure_rows, s.on, s.off, period):
+        k = max(0, round((exposure_rows - e) / period))  # as many whole periods as the exposure given holds
+        exposure, on, off = levels_for_whole_periods(e, a, b, period, k)
+        branches.append(ExposureChoice(float(exposure), float(on), float(off), reflected, k))
+    nearest = min(branches, key=lambda c: abs(c.exposure_rows - exposure_rows))
+    return (ExposureChoice(float(exposure_rows), nearest.on, max(0.0, nearest.off), nearest.reflected,
+                           nearest.whole_periods),
+            abs(nearest.exposure_rows - exposure_rows))
+
+
 def off_step_per_period(exposure_rows: float, on: float, off: float, period_rows: float) -> float:
     """How much each whole stripe period more lowers the OFF level (linear) that makes the same stripes:
     Δ₀·P/(2·E₀) (:func:`rollsim.fit.stripes.levels_for_whole_periods`), the same from E₀ and from P − E₀."""
     return float(abs(on - off) * period_rows / (2.0 * max(exposure_rows, 1e-9 * period_rows)))
+
+
+def branch_starts(exposure_rows: float, on: float, off: float,
+                  period_rows: float) -> list[tuple[bool, tuple[float, float, float]]]:
+    """The first exposure of each branch that makes the same stripes as ``exposure_rows`` (rows) with
+    linear levels ``on`` and ``off``: (reflected, (E, ON, OFF)) for E₀ within one period, and for
+    P − E₀ where E₀ is not a whole number of periods."""
+    whole = whole_periods_in(exposure_rows, period_rows)
+    e0, a0, b0 = levels_for_whole_periods(exposure_rows, on, off, period_rows, -whole)
+    starts = [(False, (float(e0), float(a0), float(b0)))]
+    if 0 < e0 < period_rows:
+        e1, a1, b1 = reflected_levels(float(e0), a0, b0, period_rows)
+        starts.append((True, (float(e1), float(a1), float(b1))))
+    return starts
 
 
 def exposure_branches(exposure_rows: float, on: float, off: float, period_rows: float) -> list[ExposureChoice]:
@@ -450,13 +513,8 @@ def exposure_branches(exposure_rows: float, on: float, off: float, period_rows: 
     levels ``on`` and ``off``, with the levels each implies: its E₀ within one period
     and P − E₀, each with 0 to :data:`MAX_WHOLE_PERIODS` whole periods
     (``reflected`` and ``whole_periods`` relative to E₀)."""
-    whole = whole_periods_in(exposure_rows, period_rows)
-    e0, a0, b0 = levels_for_whole_periods(exposure_rows, on, off, period_rows, -whole)
-    starts = [(False, (e0, a0, b0))]
-    if 0 < e0 < period_rows:
-        starts.append((True, reflected_levels(float(e0), a0, b0, period_rows)))
     branches = []
-    for reflected, (e, a, b) in starts:
+    for reflected, (e, a, b) in branch_starts(exposure_rows, on, off, period_rows):
         for k in range(MAX_WHOLE_PERIODS + 1):
             exposure, level_on, level_off = levels_for_whole_periods(float(e), a, b, period_rows, k)
             branches.append(ExposureChoice(float(exposure), float(level_on), float(level_off), reflected, k))

@@ -22,9 +22,9 @@ from rollsim.errors import SceneError
 from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.compression import jpeg_quality
-from rollsim.fit.camera import BASE, FRAMES, NOT_IDENTIFIED, Estimate, ExposureChoice, Measured, NoiseFit, \
-    Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, exposure_alternatives_rows, \
-    exposure_choices, level_ratio, levels_match, matched_terms, measure, noise_anchors
+from rollsim.fit.camera import BASE, FRAMES, GIVEN, NOT_IDENTIFIED, Estimate, ExposureChoice, Known, Measured, \
+    NoiseFit, Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, exposure_alternatives_rows, \
+    exposure_choices, given_exposure_choice, level_ratio, levels_match, matched_terms, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
@@ -42,6 +42,11 @@ NOISE_ROUNDS = 2
 EXPOSURE_RENDERS = 3
 RENDERED_MARGIN = 4.0
 RENDERED_GAIN = 0.1
+
+# An exposure the user gives is noted where it lies further than this from
+# every exposure the stripes' edges allow, rows (the stripe fit trades its
+# exposure against the smoothing by about a row).
+GIVEN_EXPOSURE_ROWS = 2.0
 # How far (in sigmas of the plane's stripe fit) the most precise plane's fit,
 # rendered, must miss the other plane's exposure before that plane's fit
 # can replace it (:func:`plane_kept`).
@@ -87,7 +92,7 @@ class CameraFit:
 
 def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, iterations: int = 4,
                progress: Callable[[str], None] | None = None, recording=None,
-               frame_rate_hz: float | None = None) -> CameraFit:
+               frame_rate_hz: float | None = None, known: Known | None = None) -> CameraFit:
     """Fit a camera, its ISP and the LED's image to frames of a square-wave LED.
 
     The parameters read off the frames' statistics are then refined by
@@ -122,6 +127,9 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
         loss of noise and detail is the simulator's too, and cancels.
     frame_rate_hz : float, optional
         The frames' rate (a video's); default the base scene's.
+    known : Known, optional
+        What the user knows of the camera (the exposure, the tone curve):
+        held, not fitted, and its source ``given``.
 
     Returns
     -------
@@ -136,6 +144,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     from decoder import estimate_row_time
 
     say = progress or (lambda line: None)
+    known = known or Known()
     frames = [np.asarray(f) for f in frames]
     if len(frames) < 2:
         raise ValueError("fit-camera needs at least two frames (the temporal noise comes from frame pairs)")
@@ -157,20 +166,21 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
             "fitting the stripes and the noise in each colour plane")
         candidates = measured_planes(plane_shortlist(frames, 2.0 / (clock_hz * row_time[0])),
                                      lambda planes: measure(planes, clock_hz, row_time=row_time,
-                                                            stripes_at=stripes_at, binning=binning))
+                                                            stripes_at=stripes_at, binning=binning,
+                                                            tone_gamma=known.tone_gamma))
     else:
         grey = as_fitted(frames, "grey")
         binning = detect_binning(grey)
         say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (grey); "
             "fitting the stripes and the noise")
         candidates = [("grey", grey, measure(grey, clock_hz, row_time=row_time, stripes_at=stripes_at,
-                                             binning=binning))]
+                                             binning=binning, tone_gamma=known.tone_gamma))]
     # A video's codec is told by its file; stills saved as JPEG show their quality.
     jpeg = jpeg_quality(frames) if recording is None else None
     if jpeg is not None:
         say(f"the frames were saved as JPEG of quality {jpeg}: the fit renders through it")
     setting = Refinement(base, shape, clock_hz, len(frames), iterations, say,
-                         {"recording": recording, "frame_rate_hz": frame_rate_hz, "jpeg_quality": jpeg})
+                         {"recording": recording, "frame_rate_hz": frame_rate_hz, "jpeg_quality": jpeg}, known)
     fits = [refined(setting, candidates[0][0], candidates[0][2])]
     for channel, _, target in candidates[1:]:
         try:
@@ -241,9 +251,9 @@ def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
 @dataclass(frozen=True)
 class Refinement:
     """What every plane's refinement shares: the base scene, the frames' shape (rows, columns),
-    the chip rate (Hz), the number of frames, the rounds, the progress callback and how the
+    the chip rate (Hz), the number of frames, the rounds, the progress callback, how the
     frames were encoded (:func:`rollsim.fit.fitted_scene.fitted_scene`'s ``recording``,
-    ``frame_rate_hz`` and ``jpeg_quality``)."""
+    ``frame_rate_hz`` and ``jpeg_quality``) and what the user told of the camera."""
 
     base: Scene
     shape: tuple
@@ -252,6 +262,7 @@ class Refinement:
     iterations: int
     say: Callable[[str], None]
     encoding: dict
+    known: Known = Known()
 
 
 def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
@@ -270,18 +281,33 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
         trial_rendered = measure_rendered(trial_scene, setting.n_frames, channel, target)
         return mismatch(target, trial_rendered, p.gamma), p, trial_scene, trial_notes, trial_rendered
 
-    choices = exposure_choices(target, setting.base)
-    trials = [rendered_trial(with_exposure(direct_params, c)) for c in choices[:EXPOSURE_RENDERS]]
-    kept = rendered_choice([t[0] for t in trials])
-    choices = [choices[kept]] + choices[:kept] + choices[kept + 1:]
-    say(f"exposure {choices[0].exposure_rows:.2f} rows" + (f", of the {len(trials)} the stripes allow rendered"
-                                                            if len(trials) > 1 else ", the one the stripes allow"))
+    held = given_exposure(setting.known, target)  # the exposure given, rows, or None
+    given_notes: list[str] = []
+    if held is not None:
+        choice, apart_rows = given_exposure_choice(target, held)
+        choices, kept = [choice], 0
+        trials = [rendered_trial(with_exposure(direct_params, choice))]
+        say(f"exposure {held:.2f} rows, as given; held")
+        if apart_rows > GIVEN_EXPOSURE_ROWS:
+            given_notes.append(
+                f"The exposure given, {held * target.row_time_s * 1e6:.1f} us ({held:.2f} rows), lies "
+                f"{apart_rows:.1f} rows from the nearest the stripes' edges allow: the frames read another "
+                "exposure (or a smoothing that widens the edges); it is held as given.")
+    else:
+        choices = exposure_choices(target, setting.base)
+        trials = [rendered_trial(with_exposure(direct_params, c)) for c in choices[:EXPOSURE_RENDERS]]
+        kept = rendered_choice([t[0] for t in trials])
+        choices = [choices[kept]] + choices[:kept] + choices[kept + 1:]
+        say(f"exposure {choices[0].exposure_rows:.2f} rows" + (f", of the {len(trials)} the stripes allow rendered"
+                                                                if len(trials) > 1 else ", the one the stripes allow"))
 
     def rounds(best: tuple, count: int) -> tuple:
         """The best of ``best`` (a :func:`rendered_trial`) and ``count`` rounds refined from it."""
         score, params, scene, notes, rendered = best
         for k in range(count):
             params = corrected(params, noise, target, rendered)
+            if held is not None:
+                params = dataclasses.replace(params, exposure_rows=held)
             score, params, scene, notes, rendered = rendered_trial(params)
             say(f"round {k + 1} of {count}: exposure {scene.camera.exposure_us:.1f} us, "
                 f"ISO {scene.camera.iso:.0f} (mismatch {score:.3g})")
@@ -292,7 +318,7 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
     best = rounds(trials[kept], setting.iterations)
     # Where the renders chose (a clear margin), they decided; else the refined
     # levels may place the face's light in another branch.
-    branches = branches_by_refined_levels(best[1], target, setting.base) if kept == 0 else None
+    branches = branches_by_refined_levels(best[1], target, setting.base) if kept == 0 and held is None else None
     if branches is not None:
         # The levels propose, a render confirms: that branch is refined in
         # turn, half the rounds first, and kept only where its render lies
@@ -320,8 +346,15 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
             break
         params, scene, notes, rendered = trial, trial_scene, trial_notes, trial_rendered
         say(f"noise matched: ISO {scene.camera.iso:.0f}")
-    return CameraFit(estimates(target, params, noise, scene, setting.base, choices), scene, target, notes, channel,
-                     mismatch(target, rendered, params.gamma))
+    return CameraFit(estimates(target, params, noise, scene, setting.base, choices, setting.known), scene, target,
+                     notes + given_notes, channel, mismatch(target, rendered, params.gamma))
+
+
+def given_exposure(known: Known, target: Measured) -> float | None:
+    """The exposure the user gave, in the frames' rows (None: not given)."""
+    if known.exposure_us is None:
+        return None
+    return known.exposure_us * 1e-6 / target.row_time_s
 
 
 def with_exposure(p: Parameters, choice: ExposureChoice) -> Parameters:
@@ -498,9 +531,10 @@ def jpeg_estimate(scene: Scene) -> Estimate:
 
 
 def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene,
-              choices: Sequence[ExposureChoice]) -> dict:
+              choices: Sequence[ExposureChoice], known: Known | None = None) -> dict:
     """Every parameter of the fitted scene with its uncertainty and source; ``choices``
-    are the exposures the stripes allow, the one kept first."""
+    are the exposures the stripes allow, the one kept first; ``known``, what the user gave."""
+    known = known or Known()
     cam = scene.camera
     t_row_us = m.row_time_s * 1e6
     unc = m.stripes.uncertainties
@@ -512,20 +546,25 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         no_background = "the background is clipped at black"
     else:
         no_background = "the background is clipped at full scale"
-    out = {
-        "row_time_us": Estimate(t_row_us, m.row_time_sd_s * 1e6, "us", "stripe period of the square wave"),
-        "exposure_us": Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
+    exposure = Estimate(cam.exposure_us, None, "us", "held as given", GIVEN) if known.exposure_us is not None else \
+        Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
                                 "width of the box that rounds the stripes' edges (ramps between clipped plateaus "
                                 "and the OFF runs' widths when saturated); whole periods and the reflection E <-> "
                                 "P - E chosen by the OFF level, or by rendering where that tells them apart; "
                                 "refined by rendering",
                                 alternatives=tuple(e * t_row_us for e in exposure_alternatives_rows(
-                                    cam.exposure_us / t_row_us, m.stripes_period_rows, choices))),
+                                    cam.exposure_us / t_row_us, m.stripes_period_rows, choices)))
+    tone = Estimate(p.gamma, None, "", "exponent of the tone curve (1 linear, 2.4 sRGB, rollsim.fit.tone), held as "
+                    "given", GIVEN) if known.tone_gamma is not None else \
+        Estimate(p.gamma, unc.get("gamma"), "", "exponent of the tone curve (1 linear, 2.4 sRGB, "
+                 "rollsim.fit.tone), " + ("told by the noise against the level (photon transfer)"
+                                          if m.stripes.gamma_given else "from the edges"))
+    out = {
+        "row_time_us": Estimate(t_row_us, m.row_time_sd_s * 1e6, "us", "stripe period of the square wave"),
+        "exposure_us": exposure,
         "isp_smoothing_rows": Estimate(p.smoothing_rows, unc.get("smoothing_rows"), "rows",
                                        "sigma of the ISP's vertical Gaussian, from the edges' shape"),
-        "tone_gamma": Estimate(p.gamma, unc.get("gamma"), "", "exponent of the tone curve (1 linear, 2.4 sRGB, "
-                               "rollsim.fit.tone), " + ("told by the noise against the level (photon transfer)"
-                                                        if m.stripes.gamma_given else "from the edges")),
+        "tone_gamma": tone,
         "gain_dn_per_e": Estimate(cam.gain_dn_per_e_at_iso, None, "DN/e", "slope of the photon-transfer line "
                                   "(or the noise at one level), refined by rendering", noise.gain_source,
                                   noise.reason if noise.gain_source != FRAMES else None),

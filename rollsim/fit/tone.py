@@ -27,6 +27,9 @@ import numpy as np
 SRGB_GAMMA = 2.4
 _SRGB_OFFSET = 0.055
 
+# The curves a user may name (``rollsim fit-camera --tone``), by their exponent.
+NAMED_GAMMAS = {"linear": 1.0, "srgb": SRGB_GAMMA}
+
 
 def offset(gamma: float) -> float:
     """a(γ): 0 at γ ≤ 1, sRGB's 0.055 at :data:`SRGB_GAMMA`, linear in γ between and beyond."""
