@@ -542,6 +542,11 @@ def cmd_fit_camera(args) -> int:
             raise RollsimError(f"{path}: fit-camera reads 8-bit frames (a camera's processed output), got 16-bit")
         frames.append(image)
     base = load_scene(args.scene, args.overrides)
+    frame_period_us = 1e6 / (frame_rate_hz or base.camera.frame_rate_hz)
+    if args.exposure_us is not None and args.exposure_us >= frame_period_us:
+        raise RollsimError(f"--exposure-us = {args.exposure_us:g}: not shorter than the frame period "
+                           f"{frame_period_us:.1f} us" + ("" if video is not None else
+                                                          f" (the base scene's {base.camera.frame_rate_hz:g} frames/s)"))
     try:
         fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
                          progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True),

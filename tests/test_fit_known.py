@@ -111,6 +111,11 @@ def test_fit_camera_takes_the_exposure_and_tone_curve_and_refuses_an_impossible_
     err = capsys.readouterr().err.strip()
     assert "--exposure-us" in err and "\n" not in err
     assert not (tmp_path / "bad").exists()
+    assert main(["fit-camera", str(folder), "--clock-hz", "2500", "--exposure-us", "40000", "--out",
+                 str(tmp_path / "long")]) != 0
+    err = capsys.readouterr().err.strip()
+    assert "--exposure-us" in err and "frame period" in err and "\n" not in err
+    assert not (tmp_path / "long").exists()
     assert main(["fit-camera", str(folder), "--clock-hz", "2500", "--exposure-us", "300", "--tone", "srgb",
                  "--iterations", "0", "--out", str(tmp_path / "fit")]) == 0
     estimates = json.loads((tmp_path / "fit" / "fit.json").read_text())["estimates"]

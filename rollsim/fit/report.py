@@ -85,7 +85,7 @@ def alternatives_lines(estimates: dict) -> list[str]:
                       "frames rendered with any of these values are the same (whole stripe periods more, and "
                       "the reflection E ↔ P − E, with the LED's ON and OFF levels to match). The fit took the "
                       "one whose OFF level is nearest the ambient light on the LED's face; if the camera's "
-                      "setting is known, it tells which is right."]
+                      "setting is known, it tells which is right (`fit-camera --exposure-us`)."]
     return lines
 
 
@@ -94,8 +94,9 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
              f"{len(sources)} frames ({fit.channel}); the scene is `camera.yaml`, every estimate with its "
              "uncertainty and source in `fit.json`.",
              "", "## Estimates", "",
-             "Source: `frames` (fitted to them), `base scene` (what frames of a square wave never show) or "
-             "`not identified` (what these frames do not show; the base scene's value is used).", "",
+             "Source: `frames` (fitted to them), `base scene` (what frames of a square wave never show), "
+             "`not identified` (what these frames do not show; the base scene's value is used) or `given` "
+             "(told, and held: `--exposure-us`, `--tone`).", "",
              "| quantity | value | ± 1σ | unit | source | how, or why not |", "|---|---|---|---|---|---|"]
     for name, e in fit.estimates.items():
         unc = "" if e.uncertainty is None or not np.isfinite(e.uncertainty) else f"{e.uncertainty:.4g}"
