@@ -122,3 +122,16 @@ def test_fit_camera_takes_the_exposure_and_tone_curve_and_refuses_an_impossible_
     assert estimates["exposure_us"]["source"] == "given" and estimates["exposure_us"]["value"] == pytest.approx(300)
     assert estimates["tone_gamma"]["source"] == "given" and estimates["tone_gamma"]["value"] == SRGB_GAMMA
     assert "| given |" in (tmp_path / "fit" / "report.md").read_text()
+
+
+def test_the_bench_tells_the_fit_each_hidden_cameras_exposure_and_tone_curve():
+    # `rollsim bench fit-camera --known exposure --known tone`, one camera up to 300 rows.
+    from rollsim.bench.fit_camera import draw_cameras, format_summary, run_bench
+
+    cam = draw_cameras(13, 1, 300)[0]
+    result = run_bench(13, 1, max_height_px=300, known=("tone", "exposure"))
+    row, summary = result["rows"][0], result["summary"]
+    assert summary["known"] == ["exposure", "tone"]
+    assert "the fit told each one's exposure and tone" in format_summary(summary)
+    assert row["fitted"] and abs(row["exposure_error"]) < 1e-9
+    assert row["fitted_gamma"] == (SRGB_GAMMA if cam.srgb else 1.0)
