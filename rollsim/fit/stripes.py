@@ -211,6 +211,15 @@ MAX_FIT_FRAMES = 6
 # Each grid start runs this many evaluations; the best goes on to convergence.
 SCOUT_EVALUATIONS = 40
 
+# Profiles whose top (97th percentile) reaches this fraction of full scale
+# clip: the LED's ON level above it shows only in the ramps, and the fit
+# starts from ON levels this many times the top's as well (the ramps of an
+# LED far above the clip are a small part of the exposure's box; started
+# at the clip, least squares stays in a valley where a longer exposure
+# makes the ramps).
+CLIPPED_PROFILE = 0.97
+SATURATED_ON_STARTS = (8.0,)
+
 
 @dataclass(frozen=True)
 class _Layout:
@@ -357,9 +366,10 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
             # A grid: the box and the Gaussian trade off, and the phase
             # guess from the fundamental is off by half the box.
             gammas = (1.0, SRGB_GAMMA) if layout.fit_gamma else (layout.given_gamma,)
-            starts = [layout.pack(e0 * period_rows, 0.5, g0, [float(decode(hi, g0))] * nk, [float(decode(lo, g0))] * nk,
-                                  [ph + e0 * period_rows / 2 for ph in phases0])
-                      for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in gammas]
+            ons = (1.0,) + (SATURATED_ON_STARTS if hi >= CLIPPED_PROFILE else ())
+            starts = [layout.pack(e0 * period_rows, 0.5, g0, [float(decode(hi, g0)) * on] * nk,
+                                  [float(decode(lo, g0))] * nk, [ph + e0 * period_rows / 2 for ph in phases0])
+                      for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in gammas for on in ons]
         sparsity = layout.sparsity(rows, knots, 4.0 * period_rows)  # σ ≤ P, the kernel within 4σ
         fits.append((layout, _solve(layout, starts, make_residuals(layout), period_rows, sparsity)))
     layout, best = min(fits, key=lambda f: _bic(f[1], target.size))
