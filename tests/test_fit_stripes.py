@@ -40,6 +40,20 @@ def test_the_fit_recovers_the_exposure_and_the_smoothing_of_exact_profiles(expos
     assert fit.rms_residual < 0.05
 
 
+@pytest.mark.parametrize("off", [0.05, 0.17])
+def test_the_fit_finds_an_led_far_above_the_clip(off):
+    # ON at 14 full scales through sRGB's curve: the ramps between the OFF
+    # rows and the clip span a fourteenth of the box, the clipped plateaus
+    # the rest. Started at the clip alone, the fit settled on ON ~2.5 and an
+    # exposure of 6.9 rows for 5 (the ramps made by the box instead of the
+    # smoothing), 4-6 levels of residual on exact profiles.
+    rows = np.arange(40, 360).astype(np.float64)
+    profiles = [_profile(rows, 5.0, 1.2, phase=p, on=14.0, off=off, gamma=2.4) for p in (1.3, 7.9, 12.4, 17.0)]
+    fit = fit_stripes(profiles, rows, PERIOD, gamma=2.4)
+    assert fit.exposure_rows == pytest.approx(5.0, rel=0.03)
+    assert fit.on > 6.0 and fit.rms_residual < 0.1
+
+
 def _fit_with(exposure_rows, on, off, gamma=1.0):
     from rollsim.fit.stripes import StripeFit
 
