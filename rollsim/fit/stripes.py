@@ -212,11 +212,11 @@ MAX_FIT_FRAMES = 6
 SCOUT_EVALUATIONS = 40
 
 # Profiles whose top (97th percentile) reaches this fraction of full scale
-# clip: the LED's ON level above it shows only in the ramps, and the fit
-# starts from ON levels this many times the top's as well (the ramps of an
-# LED far above the clip are a small part of the exposure's box; started
-# at the clip, least squares stays in a valley where a longer exposure
-# makes the ramps).
+# clip: the LED's ON level above it shows only in the ramps, and the model
+# chosen is fitted again from ON levels this many times the top's (the
+# ramps of an LED far above the clip are a small part of the exposure's
+# box; started at the clip, least squares stays in a valley where a longer
+# exposure makes the ramps).
 CLIPPED_PROFILE = 0.97
 SATURATED_ON_STARTS = (8.0,)
 
@@ -341,6 +341,18 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     lo = min(float(np.percentile(p, 3)) for p in data) / 255.0
     phases0 = [_fundamental_phase(p, rows, period_rows) for p in data]
 
+    def grid_starts(layout, on_times_top):
+        # A grid: the box and the Gaussian trade off, and the phase guess
+        # from the fundamental is off by half the box. ON starts at the
+        # profiles' top (decoded), or that many times it.
+        gammas = (1.0, SRGB_GAMMA) if layout.fit_gamma else (layout.given_gamma,)
+        return [layout.pack(e0 * period_rows, 0.5, g0, [float(decode(hi, g0)) * on_times_top] * nk,
+                            [float(decode(lo, g0))] * nk, [ph + e0 * period_rows / 2 for ph in phases0])
+                for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in gammas]
+
+    def sparsity_of(layout):
+        return layout.sparsity(rows, knots, 4.0 * period_rows)  # σ ≤ P, the kernel within 4σ
+
     def make_residuals(layout):
         def residuals(x):
             e, s, g, on, off, phases = layout.unpack(x)
@@ -363,16 +375,16 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
             starts = [layout.pack(start.exposure_rows, start.smoothing_rows, start.gamma, start.on_knots,
                                   start.off_knots, [ph + start.exposure_rows / 2 for ph in phases0])]
         else:
-            # A grid: the box and the Gaussian trade off, and the phase
-            # guess from the fundamental is off by half the box.
-            gammas = (1.0, SRGB_GAMMA) if layout.fit_gamma else (layout.given_gamma,)
-            ons = (1.0,) + (SATURATED_ON_STARTS if hi >= CLIPPED_PROFILE else ())
-            starts = [layout.pack(e0 * period_rows, 0.5, g0, [float(decode(hi, g0)) * on] * nk,
-                                  [float(decode(lo, g0))] * nk, [ph + e0 * period_rows / 2 for ph in phases0])
-                      for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in gammas for on in ons]
-        sparsity = layout.sparsity(rows, knots, 4.0 * period_rows)  # σ ≤ P, the kernel within 4σ
-        fits.append((layout, _solve(layout, starts, make_residuals(layout), period_rows, sparsity)))
+            starts = grid_starts(layout, 1.0)
+        fits.append((layout, _solve(layout, starts, make_residuals(layout), period_rows, sparsity_of(layout))))
     layout, best = min(fits, key=lambda f: _bic(f[1], target.size))
+    if start is None and hi >= CLIPPED_PROFILE:
+        # The profiles clip: the chosen model is fitted again from ON levels
+        # far above the clip (SATURATED_ON_STARTS), and the nearer kept.
+        for on in SATURATED_ON_STARTS:
+            far = _solve(layout, grid_starts(layout, on), make_residuals(layout), period_rows, sparsity_of(layout))
+            if far.cost < best.cost:
+                best = far
     e, s, g, on, off, phases = layout.unpack(best.x)
     dof = max(1, best.fun.size - best.x.size)
     rms = float(np.sqrt(np.mean(best.fun**2)))
