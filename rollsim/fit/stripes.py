@@ -341,11 +341,12 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     lo = min(float(np.percentile(p, 3)) for p in data) / 255.0
     phases0 = [_fundamental_phase(p, rows, period_rows) for p in data]
 
-    def grid_starts(layout, on_times_top):
+    def grid_starts(layout, on_times_top, gammas=None):
         # A grid: the box and the Gaussian trade off, and the phase guess
         # from the fundamental is off by half the box. ON starts at the
         # profiles' top (decoded), or that many times it.
-        gammas = (1.0, SRGB_GAMMA) if layout.fit_gamma else (layout.given_gamma,)
+        if gammas is None:
+            gammas = (1.0, SRGB_GAMMA) if layout.fit_gamma else (layout.given_gamma,)
         return [layout.pack(e0 * period_rows, 0.5, g0, [float(decode(hi, g0)) * on_times_top] * nk,
                             [float(decode(lo, g0))] * nk, [ph + e0 * period_rows / 2 for ph in phases0])
                 for e0 in (0.1, 0.25, 0.45, 0.7, 1.2) for g0 in gammas]
@@ -380,9 +381,11 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     layout, best = min(fits, key=lambda f: _bic(f[1], target.size))
     if start is None and hi >= CLIPPED_PROFILE:
         # The profiles clip: the chosen model is fitted again from ON levels
-        # far above the clip (SATURATED_ON_STARTS), and the nearer kept.
+        # far above the clip (SATURATED_ON_STARTS) and its γ, and the nearer kept.
+        chosen_gamma = (layout.unpack(best.x)[2],)
         for on in SATURATED_ON_STARTS:
-            far = _solve(layout, grid_starts(layout, on), make_residuals(layout), period_rows, sparsity_of(layout))
+            far = _solve(layout, grid_starts(layout, on, chosen_gamma), make_residuals(layout), period_rows,
+                         sparsity_of(layout))
             if far.cost < best.cost:
                 best = far
     e, s, g, on, off, phases = layout.unpack(best.x)
