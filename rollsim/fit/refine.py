@@ -546,19 +546,23 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         no_background = "the background is clipped at black"
     else:
         no_background = "the background is clipped at full scale"
-    exposure = Estimate(cam.exposure_us, None, "us", "held as given", GIVEN) if known.exposure_us is not None else \
-        Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
-                                "width of the box that rounds the stripes' edges (ramps between clipped plateaus "
-                                "and the OFF runs' widths when saturated); whole periods and the reflection E <-> "
-                                "P - E chosen by the OFF level, or by rendering where that tells them apart; "
-                                "refined by rendering",
-                                alternatives=tuple(e * t_row_us for e in exposure_alternatives_rows(
-                                    cam.exposure_us / t_row_us, m.stripes_period_rows, choices)))
-    tone = Estimate(p.gamma, None, "", "exponent of the tone curve (1 linear, 2.4 sRGB, rollsim.fit.tone), held as "
-                    "given", GIVEN) if known.tone_gamma is not None else \
-        Estimate(p.gamma, unc.get("gamma"), "", "exponent of the tone curve (1 linear, 2.4 sRGB, "
-                 "rollsim.fit.tone), " + ("told by the noise against the level (photon transfer)"
-                                          if m.stripes.gamma_given else "from the edges"))
+    if known.exposure_us is not None:
+        exposure = Estimate(cam.exposure_us, None, "us", "held as given", GIVEN)
+    else:
+        exposure = Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
+                            "width of the box that rounds the stripes' edges (ramps between clipped plateaus and "
+                            "the OFF runs' widths when saturated); whole periods and the reflection E <-> P - E "
+                            "chosen by the OFF level, or by rendering where that tells them apart; refined by "
+                            "rendering",
+                            alternatives=tuple(e * t_row_us for e in exposure_alternatives_rows(
+                                cam.exposure_us / t_row_us, m.stripes_period_rows, choices)))
+    tone_how = "exponent of the tone curve (1 linear, 2.4 sRGB, rollsim.fit.tone), "
+    if known.tone_gamma is not None:
+        tone = Estimate(p.gamma, None, "", tone_how + "held as given", GIVEN)
+    else:
+        tone = Estimate(p.gamma, unc.get("gamma"), "", tone_how + ("told by the noise against the level (photon "
+                                                                   "transfer)" if m.stripes.gamma_given
+                                                                   else "from the edges"))
     out = {
         "row_time_us": Estimate(t_row_us, m.row_time_sd_s * 1e6, "us", "stripe period of the square wave"),
         "exposure_us": exposure,
