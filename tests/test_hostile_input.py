@@ -66,7 +66,8 @@ def test_bad_scene_files_are_one_line(tmp_path, capsys, monkeypatch, text, fragm
     scene = tmp_path / "scene.yaml"
     scene.write_bytes(text if isinstance(text, bytes) else text.encode())
     err = _unchanged_around(tmp_path, capsys, ["validate", scene], 2, str(scene), *fragments)
-    assert len(err) < 400
+    # The message, not the temporary folder's name (longer under pytest-xdist), is bounded.
+    assert len(err.replace(str(scene), "scene.yaml")) < 400
 
 
 def test_a_device_a_directory_and_a_huge_file_are_not_inputs(tmp_path, capsys, monkeypatch):
