@@ -13,6 +13,7 @@ from rollsim.sensor.poisson import (
     DIRECT_CLASSES,
     GAUSSIAN_ABOVE_E,
     K_MASK,
+    SEVERAL_STEPS,
     STRADDLE,
     TABLE_BINS,
     TABLES,
@@ -105,6 +106,33 @@ def test_tables_are_built_once_and_do_not_change_the_result():
     built = int((TABLES.slot >= 0).sum())
     again = shot_poisson(key, lam)
     assert np.array_equal(first, again) and int((TABLES.slot >= 0).sum()) == built
+
+
+def test_a_bins_one_step_gives_the_count_the_cdf_gives_at_every_word_around_it():
+    """The step table: where a guide bin holds one step of the CDF, the count is the bin's below the word
+    the table names and one more from it on, exactly as the CDF's inverse at u = w / 2^32 (the words
+    either side of the step, and the bin's ends); bins of several steps are named so (searched)."""
+    tables = PoissonTables()
+    ids = np.array([300, DIRECT_CLASSES + 7, 12 * 256 + 29, 12 * 256 + 30, 15 * 256 + 200])  # λ ≈ 3.2 … 58000
+    tables.build(ids)
+    shift = 32 - int(np.log2(TABLE_BINS))
+    for c in ids:
+        cdf = tables.cdf[tables.cdf_start[c]:tables.cdf_start[c] + tables.cdf_size[c]]
+        row = slice(tables.slot[c] * TABLE_BINS, (tables.slot[c] + 1) * TABLE_BINS)
+        guide, step = tables.guide[row], tables.step[row]
+        bins_of = np.floor(cdf[:-1] * TABLE_BINS).astype(np.int64)
+        steps_in = np.bincount(bins_of, minlength=TABLE_BINS)[:TABLE_BINS]
+        assert np.array_equal(step != SEVERAL_STEPS, steps_in == 1)
+        assert np.array_equal((guide & STRADDLE) != 0, steps_in > 0)
+        one = np.flatnonzero(steps_in == 1)
+        assert one.size > 0
+        start = one.astype(np.uint64) << np.uint64(shift)
+        last = start + np.uint64((1 << shift) - 1)
+        at = start + step[one].astype(np.uint64)
+        for words in (start, last, at, np.maximum(at, start + np.uint64(1)) - np.uint64(1)):
+            count = (guide[one] & K_MASK).astype(np.int64) + (words - start >= step[one])
+            exact = np.searchsorted(cdf, words.astype(np.float64) * 2.0**-32, side="right")
+            assert np.array_equal(count, exact), c
 
 
 def test_direct_rows_hold_each_bins_count_and_flag_and_unbuilt_before():

@@ -44,6 +44,7 @@ from rollsim.sensor.poisson import (
     CLASS_MASK,
     CLASS_MEANS,
     DIRECT_ABOVE_E,
+    DIRECT_EXPONENT,
     EXP_NEG_COEFFICIENTS,
     EXPONENT_BIAS,
     EXPONENT_SHIFT,
@@ -53,10 +54,13 @@ from rollsim.sensor.poisson import (
     MANTISSA_SHIFT,
     MAX_SMALL_K,
     N_CLASSES,
+    SEVERAL_STEPS,
     STRADDLE,
     TABLE_BINS,
     TABLES,
+    TWO_32,
     UNBUILT,
+    WITHIN_BIN_MASK,
     poisson_numpy,
 )
 
@@ -171,13 +175,15 @@ def _chain_numpy_part(lam, offset, shot, keys, full_well_e, read_sigma_e, adc, l
 # Pixels per block of the compiled chain: the block's buffers (~144 KB) stay
 # in the L2 cache between its loops.
 BLOCK_PIXELS = 1024
-_TWO_32 = 4294967296.0
+# Means below this take two classes at most, the second a direct one: the
+# first class's remainder λ − g lies below λ / 2^CLASS_BITS = 2^DIRECT_EXPONENT.
+PAIR_BELOW_E = float(1 << (DIRECT_EXPONENT + CLASS_BITS))
 
 
 @kernel
 def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, read_key, adc, lut, out,
-                  cdf, slot, cdf_start, cdf_size, k_lo, direct, class_means, exp_coefficients, z_body, z_low,
-                  z_high):
+                  cdf, slot, cdf_start, cdf_size, k_lo, direct, step_at, class_means, exp_coefficients, z_body,
+                  z_low, z_high):
     # One flat body: numba passes array arguments to a called function with
     # reference counting, which cost several times the work itself. A step
     # the chain does not take is passed as None (no shot noise, Gaussian shot
@@ -231,7 +237,24 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
     need = np.empty(n_block, dtype=np.int64)  # what a pixel's shot noise needs beyond the common case
     bin_place = np.empty(n_block, dtype=np.int64)  # pixels whose guide bin holds a CDF step
     rest_place = np.empty(n_block, dtype=np.int64)  # pixels whose remainder draws more than 0
-    rare_place = np.empty(n_block, dtype=np.int64)  # means of 256 or more
+    rare_place = np.empty(n_block, dtype=np.int64)  # means of PAIR_BELOW_E or more
+    # Means in [256, PAIR_BELOW_E): two classes each, worked through in loops of their own.
+    pair_place = np.empty(n_block, dtype=np.int64)
+    pair_rest = np.empty(n_block, dtype=np.float64)  # r1 = λ − g1, below 256
+    pair_rest_bits = pair_rest.view(np.uint64)
+    pair_word = np.empty(n_block, dtype=np.uint64)  # word 2i + 1
+    pair_later = np.empty(n_block, dtype=np.uint64)  # the high half of word 2i + 2
+    pair_first = np.empty(n_block, dtype=np.int64)  # class of g1
+    pair_second = np.empty(n_block, dtype=np.int64)  # class of g2, −1 where r1 < 1
+    pair_second_bits = np.empty(n_block, dtype=np.uint64)  # g2 (0 where none), written as bits
+    pair_second_mean = pair_second_bits.view(np.float64)
+    pair_index = np.empty(n_block, dtype=np.uint64)  # g1's guide and step entries
+    pair_index2 = np.empty(n_block, dtype=np.uint64)  # g2's direct entry (class 0's row where none: unused)
+    pair_entry = np.empty(n_block, dtype=np.uint16)
+    pair_entry2 = np.empty(n_block, dtype=np.uint16)
+    pair_step = np.empty(n_block, dtype=np.uint32)
+    pair_count = np.empty(n_block, dtype=np.int64)
+    several_place = np.empty(n_block, dtype=np.int64)  # those whose g1 bin holds several CDF steps
     rest_of = np.empty(n_block, dtype=np.float64)  # their remainders r, below 1
     u_of = np.empty(n_block, dtype=np.float64)  # and uniforms
     seq_p = np.empty(n_block, dtype=np.float64)  # and e^-r
@@ -354,21 +377,23 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                     classed = ident[j] >= 0
                     rest = mean - class_mean[j] if classed else mean
                     # u < 1 − r as words: w < ceil((1 − r)·2^32) is w < (1 − r)·2^32 for an integer w.
-                    bound = (1.0 - rest) * _TWO_32
+                    bound = (1.0 - rest) * TWO_32
                     w = word[j]
                     e = entry[j]
                     # 1: a CDF step inside the guide's bin; 2: the remainder draws more than 0;
-                    # 4: a mean of 256 or more (several classes, or beyond the tables).
+                    # 4: a mean of PAIR_BELOW_E or more (up to three classes, or beyond the tables);
+                    # 8: a mean in [256, PAIR_BELOW_E) (two classes).
                     need[j] = ((classed & (e >= np.int64(STRADDLE))) * 1
                                + ((classed & (np.float64(w & LOW32) >= bound))
                                   | ((mean < 1.0) & (np.float64(w >> np.uint64(32)) >= bound))) * 2
-                               + (~classed & (mean >= 1.0)) * 4)
+                               + (~classed & (mean >= PAIR_BELOW_E)) * 4
+                               + (~classed & (mean >= 1.0) & (mean < PAIR_BELOW_E)) * 8)
                     electrons_of[j] = np.float32(e & np.int64(K_MASK)) if classed else np.float32(0.0)
                 m = 0
                 for j in range(n):
                     slow[m] = j
                     m += need[j] != 0
-                n_bin = n_rest = n_rare = 0
+                n_bin = n_rest = n_rare = n_pair = 0
                 for s in range(m):  # sorted by what they need, so that each loop below branches alike
                     j = slow[s]
                     classed = ident[j] >= 0
@@ -380,6 +405,8 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                     n_rest += (need[j] & 2) != 0
                     rare_place[n_rare] = j
                     n_rare += (need[j] & 4) != 0
+                    pair_place[n_pair] = j
+                    n_pair += (need[j] & 8) != 0
                 for s in range(n_bin):  # the count inside the bin: the first whose CDF exceeds u
                     j = bin_place[s]
                     c = ident[j]
@@ -394,7 +421,96 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                     while lo < hi and cdf[base + lo] <= u:  # a step or two (the end bins hold the tails)
                         lo += 1
                     electrons_of[j] = np.float32(k_lo[c] + lo)
-                for s in range(n_rare):  # means of 256 or more: the tables of up to three classes
+                # Means in [256, PAIR_BELOW_E), a bright scene's: g1 from the mean's bits, and
+                # where r1 = λ − g1 ≥ 1 (it lies below 256), g2 from r1's, a direct class; r2 =
+                # r1 − g2 < 1 joins the other remainders. The words are the loop below's: part 0
+                # (the high half of word 2i + 1) for g1, part 1 (its low half) for g2 or else the
+                # remainder, part 2 (the high half of word 2i + 2) after g2. Split by kind of work as
+                # the common case is (one scalar loop carrying every step took 1.3x as long on
+                # effect-blooming's means), and g1's count read from its bin's step where the bin
+                # holds one: a third of g1's bins at λ ≈ 4500 do, and reading the CDF there missed the cache.
+                if n_pair:
+                    for s in range(n_pair):  # vectorised (gathers): r1, the words, g1's class
+                        j = pair_place[s]
+                        pair_rest[s] = mean_of[j] - class_mean[j]
+                        pair_word[s] = word[j]
+                        z = (np.uint64(first + j) * np.uint64(2) + np.uint64(2)) * GAMMA + shot_key
+                        z = (z ^ (z >> np.uint64(30))) * MIX1
+                        z = (z ^ (z >> np.uint64(27))) * MIX2
+                        pair_later[s] = (z ^ (z >> np.uint64(31))) >> np.uint64(32)
+                        bits = bits_of[j]
+                        pair_first[s] = ((np.int64(bits >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
+                            (bits >> MANTISSA_SHIFT) & CLASS_MASK)
+                    for s in range(n_pair):  # vectorised: g2's class, where r1 holds one
+                        bits = pair_rest_bits[s]
+                        two = pair_rest[s] >= 1.0
+                        c = ((np.int64(bits >> EXPONENT_SHIFT) - EXPONENT_BIAS) << CLASS_BITS) | np.int64(
+                            (bits >> MANTISSA_SHIFT) & CLASS_MASK)
+                        pair_second[s] = c if two else np.int64(-1)
+                        pair_second_bits[s] = bits & KEEP_CLASS_BITS if two else np.uint64(0)
+                        pair_index2[s] = np.uint64(c if two else np.int64(0)) * np.uint64(TABLE_BINS) + (
+                            (pair_word[s] & LOW32) >> BIN_SHIFT)
+                    n_missing = 0
+                    for s in range(n_pair):  # g1's row of the guide
+                        c = pair_first[s]
+                        row = slot[c]
+                        n_missing += np.int64((row < 0) | ((row + 1) * TABLE_BINS > guide.size)
+                                              | (cdf_start[c] + cdf_size[c] > cdf.size))
+                        pair_index[s] = np.uint64(max(row, 0)) * np.uint64(TABLE_BINS) + (
+                            (pair_word[s] >> np.uint64(32)) >> BIN_SHIFT)
+                    if n_missing:
+                        return first  # a class without its table (in the arrays given): built, then this block again
+                    for s in range(n_pair):  # the entries
+                        pair_entry[s] = guide[pair_index[s]]
+                        pair_step[s] = step_at[pair_index[s]]
+                        pair_entry2[s] = direct[pair_index2[s]]
+                    n_several = 0
+                    for s in range(n_pair):  # vectorised: g1's count, a bin's one step decided by its word
+                        g = pair_entry[s]
+                        t = pair_step[s]
+                        within = (pair_word[s] >> np.uint64(32)) & WITHIN_BIN_MASK
+                        straddled = (g & STRADDLE) != 0
+                        pair_count[s] = k_lo[pair_first[s]] + np.int64(g & K_MASK) + np.int64(
+                            straddled & (t != SEVERAL_STEPS) & (within >= np.uint64(t)))
+                        several_place[n_several] = s
+                        n_several += straddled & (t == SEVERAL_STEPS)
+                    for q in range(n_several):  # bins holding several steps (the tails): the CDF
+                        s = several_place[q]
+                        c = pair_first[s]
+                        lo = np.int64(pair_entry[s] & K_MASK)
+                        u = np.float64(pair_word[s] >> np.uint64(32)) * WORD_SCALE
+                        base = cdf_start[c]
+                        hi = cdf_size[c] - 1
+                        while lo < hi and cdf[base + lo] <= u:
+                            lo += 1
+                        pair_count[s] = k_lo[c] + lo
+                    for s in range(n_pair):  # g2's count, where there is one
+                        c = pair_second[s]
+                        if c < 0:
+                            continue
+                        e = np.int64(pair_entry2[s])
+                        if e == UNBUILT or cdf_start[c] + cdf_size[c] > cdf.size:
+                            return first
+                        lo = (e & np.int64(K_MASK)) - k_lo[c]
+                        if e & STRADDLE:
+                            u = np.float64(pair_word[s] & LOW32) * WORD_SCALE
+                            base = cdf_start[c]
+                            hi = cdf_size[c] - 1
+                            while lo < hi and cdf[base + lo] <= u:
+                                lo += 1
+                        pair_count[s] += k_lo[c] + lo
+                    for s in range(n_pair):  # the count, and the remainder r2 (or r1) with the next word
+                        j = pair_place[s]
+                        rest = pair_rest[s] - pair_second_mean[s]
+                        u_word = pair_later[s] if pair_second[s] >= 0 else pair_word[s] & LOW32
+                        electrons_of[j] = np.float32(pair_count[s])
+                        # u < 1 − r as words, as for the common case.
+                        if rest > 0.0 and np.float64(u_word) >= (1.0 - rest) * TWO_32:
+                            rest_place[n_rest] = j  # its remainder joins the others'
+                            rest_of[n_rest] = rest
+                            u_of[n_rest] = np.float64(u_word) * WORD_SCALE
+                            n_rest += 1
+                for s in range(n_rare):  # means of PAIR_BELOW_E or more: the tables of up to three classes
                     j = rare_place[s]
                     i = first + j
                     mean = mean_of[j]
@@ -446,7 +562,7 @@ def _chain_kernel(lam, parts, start, shot_key, guide, full_well, read_sigma, rea
                         else:
                             u_word = word64 & LOW32
                     electrons_of[j] = np.float32(total)
-                    if rest > 0.0 and u_word >= np.uint64(math.ceil((1.0 - rest) * _TWO_32)):
+                    if rest > 0.0 and u_word >= np.uint64(math.ceil((1.0 - rest) * TWO_32)):
                         rest_place[n_rest] = j  # its remainder joins the others'
                         rest_of[n_rest] = rest
                         u_of[n_rest] = np.float64(u_word) * WORD_SCALE

@@ -13,7 +13,11 @@ below λ/256. Each class has a table, built once per process and kept:
   of a frame whose every pixel has its own mean stay in cache), flagged
   where a step of the CDF lies inside the bin; only then does a search over
   the class's CDF find the exact step (binary in numpy, forward from the
-  bin's start in the compiled kernel: the same count). The CDF is summed from the log pmf over
+  bin's start in the compiled kernel: the same count). Where the bin holds
+  one step, a second table gives the word within the bin from which the
+  count is one more, and the compiled kernel reads that instead of the CDF
+  for the classes of means from 256 on (whose CDFs, 13 KB at 4,500 e⁻, miss
+  the cache). The CDF is summed from the log pmf over
   g ± (12√g + 12), outside which the probability is below 1e-30.
 * The remainder λ − g is split again the same way while it is at least 1
   (for λ below 256 it already is not), and a remainder r < 1 is drawn by
@@ -62,7 +66,13 @@ CLASS_MASK = np.uint64((1 << CLASS_BITS) - 1)
 KEEP_CLASS_BITS = ~np.uint64((1 << (52 - CLASS_BITS)) - 1)
 EXPONENT_SHIFT = np.uint64(52)
 EXPONENT_BIAS = 1023
-BIN_SHIFT = np.uint64(32 - BIN_BITS)
+BIN_SHIFT_BITS = 32 - BIN_BITS
+BIN_SHIFT = np.uint64(BIN_SHIFT_BITS)
+# A word's place within its guide bin (its low 22 bits).
+WITHIN_BIN_MASK = np.uint64((1 << BIN_SHIFT_BITS) - 1)
+# The step table's entry of a bin that holds more than one step of the CDF (or none): searched.
+SEVERAL_STEPS = np.uint32(0xFFFFFFFF)
+TWO_32 = 4294967296.0  # 2^32: a 32-bit word's uniform is w / 2^32
 # Classes of means below 2^DIRECT_EXPONENT (ids below DIRECT_CLASSES, the means of
 # most pixels) also keep their guide rows at fixed places, with the counts
 # themselves rather than offsets from k_lo: the compiled chain's common case
@@ -113,7 +123,8 @@ def class_mean(ids: np.ndarray) -> np.ndarray:
 
 
 def _guide_tables(means: np.ndarray):
-    """Per class: 1024 entries (k − k_lo at the bin's start, flagged where a CDF step lies inside), and the CDFs."""
+    """Per class: 1024 entries (k − k_lo at the bin's start, flagged where a CDF step lies inside), each
+    bin's step within it (:data:`SEVERAL_STEPS` where it holds more than one), and the CDFs."""
     k_lo, offsets, owner, cdf = _cdf_segments(means)
     n = means.size
     # hist[c, b]: CDF entries of class c in bin b (bin B holds those at 1).
@@ -126,7 +137,13 @@ def _guide_tables(means: np.ndarray):
         raise ValueError("a Poisson table's count offsets exceed 15 bits")
     guide = offset.astype(np.uint16)
     guide[hist[:, :TABLE_BINS] > 0] |= STRADDLE
-    return guide, k_lo, offsets, cdf
+    # A bin's one step: u = w·2^-32 reaches CDF value F where w ≥ ceil(F·2^32) (exact: F·2^32 only moves F's
+    # exponent), kept as that word's offset from the bin's first word, in [0, 2^22].
+    step = np.full((n, TABLE_BINS), SEVERAL_STEPS, dtype=np.uint32)
+    owner_of, bin_of = np.nonzero(hist[:, :TABLE_BINS] == 1)
+    first_word = np.ceil(cdf[offsets[owner_of] + below[owner_of, bin_of]] * TWO_32) - bin_of * float(1 << BIN_SHIFT_BITS)
+    step[owner_of, bin_of] = first_word.astype(np.uint32)
+    return guide, step, k_lo, offsets, cdf
 
 
 class PoissonTables:
@@ -137,6 +154,11 @@ class PoissonTables:
     guide : ndarray of uint16, shape (n_built · 1024,)
         Per bin, the count at the bin's start minus the class's ``k_lo``,
         with :data:`STRADDLE` set where the CDF steps inside the bin.
+    step : ndarray of uint32, shape (n_built · 1024,)
+        Per bin of ``guide`` that holds exactly one step of the CDF, the
+        offset within the bin (of its 2^22 words) of the first word whose
+        uniform reaches that step: the count is the bin's, plus one from
+        there on, with no CDF to read. :data:`SEVERAL_STEPS` elsewhere.
     cdf : ndarray of float64
         Every built class's CDF, concatenated.
     slot : ndarray of int64, shape (N_CLASSES,)
@@ -154,6 +176,7 @@ class PoissonTables:
 
     def __init__(self) -> None:
         self.guide = np.zeros(0, dtype=np.uint16)
+        self.step = np.zeros(0, dtype=np.uint32)
         self.cdf = np.zeros(0, dtype=np.float64)
         self.slot = np.full(N_CLASSES, -1, dtype=np.int64)
         self.cdf_start = np.zeros(N_CLASSES, dtype=np.int64)
@@ -175,11 +198,14 @@ class PoissonTables:
             ids = self.missing(ids)
             if ids.size == 0:
                 return
-            guide, k_lo, offsets, cdf = _guide_tables(class_mean(ids))
+            guide, step, k_lo, offsets, cdf = _guide_tables(class_mean(ids))
             first_slot = self.guide.size // TABLE_BINS
             self.cdf_start[ids] = self.cdf.size + offsets[:-1]
             self.cdf_size[ids] = np.diff(offsets)
             self.k_lo[ids] = k_lo
+            # The step table before the guide, and read after it (arrays()): a kernel
+            # given a guide row is given that row's steps.
+            self.step = np.concatenate([self.step, step.ravel()])
             self.guide = np.concatenate([self.guide, guide.ravel()])
             self.cdf = np.concatenate([self.cdf, cdf])
             self.slot[ids] = first_slot + np.arange(ids.size)
@@ -192,7 +218,7 @@ class PoissonTables:
 
     def arrays(self) -> tuple:
         """What a kernel reads, in its argument order."""
-        return self.guide, self.cdf, self.slot, self.cdf_start, self.cdf_size, self.k_lo, self.direct
+        return self.guide, self.cdf, self.slot, self.cdf_start, self.cdf_size, self.k_lo, self.direct, self.step
 
 
 # The mean of every class id, for kernels (exactly the masked means of split_class).
