@@ -406,7 +406,7 @@ def cmd_inspect(args) -> int:
 
 
 def _png_paths(items: Sequence[str]) -> list[Path]:
-    """Files as given (each checked to exist: :func:`_check_inputs`); a directory stands for its PNG frames."""
+    """Files as given (each checked to exist: :func:`_check_inputs`); a directory stands for its PNG or JPEG frames."""
     from rollsim.stages.decode import frame_files
 
     paths: list[Path] = []
@@ -520,6 +520,7 @@ def cmd_fit_camera(args) -> int:
         raise RollsimError(f"fit-camera needs at least two frames, got {len(paths)}")
     out = Path(args.out)
     check_directory_files(out, FILES, args.force)  # before the work, not after; made when written
+    exposure_us, exposure_how = _still_exposure(paths, args.exposure_us)
     frames = []
     notes: list[str] = []
     recording = frame_rate_hz = None
@@ -543,15 +544,18 @@ def cmd_fit_camera(args) -> int:
         frames.append(image)
     base = load_scene(args.scene, args.overrides)
     frame_period_us = 1e6 / (frame_rate_hz or base.camera.frame_rate_hz)
-    if args.exposure_us is not None and args.exposure_us >= frame_period_us:
-        raise RollsimError(f"--exposure-us = {args.exposure_us:g}: not shorter than the frame period "
-                           f"{frame_period_us:.1f} us" + ("" if video is not None else
-                                                          f" (the base scene's {base.camera.frame_rate_hz:g} frames/s)"))
+    if exposure_us is not None and exposure_us >= frame_period_us:
+        told = f"--exposure-us = {exposure_us:g}" if args.exposure_us is not None else \
+            f"the stills' EXIF exposure time, {exposure_us:g} us,"
+        raise RollsimError(f"{told}: not shorter than the frame period {frame_period_us:.1f} us" + (
+            "" if video is not None else f" (the base scene's {base.camera.frame_rate_hz:g} frames/s; "
+                                         "--set camera.frame_rate_hz=... lowers it)"))
     try:
         fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
                          progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True),
                          recording=recording, frame_rate_hz=frame_rate_hz,
-                         known=Known(args.exposure_us, None if args.tone is None else NAMED_GAMMAS[args.tone]))
+                         known=Known(exposure_us, None if args.tone is None else NAMED_GAMMAS[args.tone],
+                                     exposure_how=exposure_how))
         comparison = compare(frames, fit)
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
@@ -574,6 +578,29 @@ def cmd_fit_camera(args) -> int:
     print(f"row-profile correlation with the fit: mean {np.mean(comparison.correlations):.4f}; "
           f"wrote {out / 'camera.yaml'}, fit.json, report.md, profiles.png, frames.png")
     return EXIT_OK
+
+
+def _still_exposure(paths: Sequence[Path], given_us: Optional[float]) -> tuple[Optional[float], str]:
+    """The exposure the fit holds (µs, or None: fitted) and how it was told: ``--exposure-us``, else the
+    one exposure the stills' EXIF records; refused in one line where the stills record different ones."""
+    from rollsim.fit.exif import exposure_how, locked_exposure_us, still_settings
+
+    settings = [still_settings(p) for p in paths]  # their headers only; none for a video's frames
+    try:
+        recorded = locked_exposure_us(settings) if paths else None
+    except ValueError as exc:
+        if given_us is None:
+            raise RollsimError(f"fit-camera: {exc}") from None
+        recorded = None
+    if given_us is not None:
+        if recorded is not None and abs(recorded - given_us) > 1e-3 * given_us:
+            print(f"rollsim: note: --exposure-us {given_us:g} held; the stills' EXIF records {recorded:g} us",
+                  file=sys.stderr)
+        return given_us, "held as given"
+    if recorded is None:
+        return None, ""
+    print(f"rollsim: fit-camera: {exposure_how(recorded, settings)}", file=sys.stderr)
+    return recorded, exposure_how(recorded, settings)
 
 
 def cmd_calibrate(args) -> int:
@@ -938,7 +965,7 @@ def _add_pixel_commands(sub) -> None:
 
     p = sub.add_parser("decode", help="decode the PHY-SDUs of a directory of frames into DIR/decoded.jsonl")
     p.add_argument("dir", metavar="DIR", help="a render directory (frames/*.png or frames.mp4), a folder of PNG "
-                   "frames, or a video file")
+                   "or JPEG frames, or a video file")
     _add_video_input(p)
     p.add_argument("--scene", metavar="FILE", default=None,
                    help="scene giving the link and camera (default: DIR/scene.resolved.yaml)")
@@ -986,7 +1013,8 @@ def _add_pixel_commands(sub) -> None:
     p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("estimate-row-time", help="row time of a camera from frames of a square-wave LED")
-    p.add_argument("frames", nargs="+", metavar="FRAMES", help="PNG frames, or directories of them, or one video")
+    p.add_argument("frames", nargs="+", metavar="FRAMES",
+                   help="PNG or JPEG frames, or directories of them, or one video")
     _add_video_input(p)
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
     _add_json_file(p, "also write the estimate as JSON")
@@ -996,13 +1024,13 @@ def _add_pixel_commands(sub) -> None:
 
     p = sub.add_parser("fit-camera", help="fit a camera, its ISP and the LED's image to real frames of a square-wave LED")
     p.add_argument("frames", nargs="+", metavar="FRAMES",
-                   help="8-bit PNG frames, consecutive, or directories of them, or one video")
+                   help="8-bit PNG or JPEG frames, consecutive, or directories of them, or one video")
     _add_video_input(p, f"{VIDEO_FIT_FRAMES}")
     p.add_argument("--clock-hz", type=float, required=True, help="chip rate of the square wave in Hz (period 2 chips)")
     p.add_argument("--pattern", choices=["square"], default="square", help="what the LED sends (default square)")
     p.add_argument("--exposure-us", type=float, default=None, metavar="US",
-                   help="the camera's exposure in us, where known (set by hand, or a still's EXIF ExposureTime): "
-                        "held, not fitted")
+                   help="the camera's exposure in us, where known (set by hand): held, not fitted (default: "
+                        "the stills' EXIF ExposureTime where they record one, else fitted)")
     p.add_argument("--tone", choices=["linear", "srgb"], default=None,
                    help="the camera's tone curve, where known (linear: raw or machine-vision output; srgb: a "
                         "phone's or webcam's): held, not fitted")

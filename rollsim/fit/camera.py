@@ -69,10 +69,14 @@ class Known:
     tone_gamma : float, optional
         The tone curve's exponent (:mod:`rollsim.fit.tone`: 1 linear, 2.4
         sRGB), where the frames' noise and stripes tell it poorly.
+    exposure_how : str
+        Who told the exposure, for ``fit.json``'s ``how`` (the user, or the
+        stills' EXIF: :func:`rollsim.fit.exif.exposure_how`).
     """
 
     exposure_us: float | None = None
     tone_gamma: float | None = None
+    exposure_how: str = "held as given"
 
 
 @dataclass(frozen=True)

@@ -547,7 +547,7 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
     else:
         no_background = "the background is clipped at full scale"
     if known.exposure_us is not None:
-        exposure = Estimate(cam.exposure_us, None, "us", "held as given", GIVEN)
+        exposure = Estimate(cam.exposure_us, None, "us", known.exposure_how, GIVEN)
     else:
         exposure = Estimate(cam.exposure_us, unc.get("exposure_rows", math.nan) * t_row_us, "us",
                             "width of the box that rounds the stripes' edges (ramps between clipped plateaus and "

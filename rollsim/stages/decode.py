@@ -134,27 +134,42 @@ def settings_from_scene(scene: Scene, clock_hz: Optional[float] = None, row_time
     return DecodeSettings(phy_from_scene(scene), float(clock), float(row_time_s), exposure_s=float(exposure_s))
 
 
+# Frame files by kind, from their names' suffixes (case aside).
+FRAME_SUFFIXES = {".png": "PNG", ".jpg": "JPEG", ".jpeg": "JPEG"}
+
+
+def is_frame_file(path: Path) -> bool:
+    """Whether ``path`` is named as a frame file (PNG or JPEG), not hidden."""
+    return path.suffix.lower() in FRAME_SUFFIXES and not path.name.startswith(".")
+
+
 def frame_files(directory: Path) -> list[Path]:
-    """The PNG frames of a directory: ``DIR/frames/*.png``, else ``DIR/*.png``, sorted by name.
+    """The frames of a directory: ``DIR/frames/*.png``, else ``DIR/*.png`` or ``DIR/*.jpg`` (``.jpeg``), sorted by name.
 
     Raises
     ------
     RollsimError
-        No such directory, or no PNG in it.
+        No such directory, no frame file in it, or PNG and JPEG frames
+        side by side (a render's frames and a camera's stills are not one
+        sequence: which is meant is not guessed).
     """
     directory = Path(directory)
     if not directory.is_dir():
         raise RollsimError(missing_path(directory) or f"{directory}: not a directory")
     sub = directory / "frames"
     folder = sub if sub.is_dir() else directory
-    files = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".png" and not p.name.startswith("."))
+    files = sorted(p for p in folder.iterdir() if is_frame_file(p))
     if not files:
-        raise RollsimError(f"{folder}: no PNG frames")
+        raise RollsimError(f"{folder}: no PNG or JPEG frames")
+    kinds = sorted({FRAME_SUFFIXES[p.suffix.lower()] for p in files})
+    if len(kinds) > 1:
+        counts = ", ".join(f"{sum(FRAME_SUFFIXES[p.suffix.lower()] == k for p in files)} {k}" for k in kinds)
+        raise RollsimError(f"{folder}: holds both PNG and JPEG frames ({counts}); give the files of one kind")
     return files
 
 
 def frame_video(path: Path) -> Optional[Path]:
-    """The video file ``path`` stands for, or None where it holds PNG frames.
+    """The video file ``path`` stands for, or None where it holds PNG or JPEG frames.
 
     ``path`` itself when it is named as a video (:data:`rollsim.video.read.VIDEO_SUFFIXES`);
     for a directory without PNG frames, its one video file (``frames.mp4`` or
@@ -171,7 +186,7 @@ def frame_video(path: Path) -> Optional[Path]:
     if path.is_file() or not path.exists():
         return path if is_video_file(path) else None
     folder = path / "frames" if (path / "frames").is_dir() else path
-    if any(p.suffix.lower() == ".png" for p in folder.iterdir()):
+    if any(is_frame_file(p) for p in folder.iterdir()):
         return None
     videos = sorted(p for p in path.iterdir() if p.is_file() and is_video_file(p) and not p.name.startswith("."))
     rendered = [p for p in videos if p.stem == "frames"]

@@ -1,4 +1,4 @@
-"""decoder.io: reading PNG frames and checking arrays."""
+"""decoder.io: reading PNG and JPEG frames and checking arrays."""
 
 import struct
 import zlib
@@ -60,7 +60,7 @@ def test_gray_plus_alpha_png_reads_as_three_channels(tmp_path):
     [
         ("missing.png", None, "no such file"),
         ("text.png", b"this is not an image", "not a PNG"),
-        ("jpeg.png", b"\xff\xd8\xff\xe0" + b"\x00" * 100, "not a PNG"),
+        ("jpeg.png", b"\xff\xd8\xff\xe0" + b"\x00" * 100, "corrupt JPEG"),
         ("empty.png", b"", "not a PNG"),
     ],
 )
@@ -85,6 +85,57 @@ def test_truncated_and_corrupt_png(tmp_path):
     (tmp_path / "garbled.png").write_bytes(garbled)
     with pytest.raises(FrameReadError, match="garbled.png"):
         read_frame(tmp_path / "garbled.png")
+
+
+def _jpeg_bytes(image, quality=90) -> bytes:
+    ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    assert ok
+    return buf.tobytes()
+
+
+def test_jpeg_stills_read_as_libjpeg_decodes_them_grey_and_colour_in_rgb(tmp_path):
+    rng = np.random.default_rng(1)
+    gray = rng.integers(0, 255, (48, 64), dtype=np.uint8)
+    bgr = rng.integers(0, 255, (48, 64, 3), dtype=np.uint8)
+    for name, image in (("g.jpg", gray), ("c.JPEG", bgr)):
+        data = _jpeg_bytes(image)
+        (tmp_path / name).write_bytes(data)
+        expected = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+        got = read_frame(tmp_path / name)
+        assert got.dtype == np.uint8
+        assert np.array_equal(got, expected if expected.ndim == 2 else expected[..., ::-1])
+
+
+def test_a_jpeg_is_read_as_stored_not_turned_by_its_exif_orientation(tmp_path):
+    # A phone held upright tags its landscape sensor's image "turn 90 degrees": the rows stay the sensor's.
+    from PIL import Image
+
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    image = np.tile(np.arange(64, dtype=np.uint8) * 4, (48, 1))
+    Image.fromarray(image).save(tmp_path / "upright.jpg", quality=95, exif=exif)
+    assert read_frame(tmp_path / "upright.jpg").shape == (48, 64)
+
+
+def test_bad_jpegs_are_refused_naming_the_file_and_what_is_wrong(tmp_path):
+    data = _jpeg_bytes(np.random.default_rng(2).integers(0, 255, (64, 64), dtype=np.uint8))
+    (tmp_path / "cut.jpg").write_bytes(data[: len(data) // 2])
+    with pytest.raises(FrameReadError, match="cut.jpg: truncated JPEG"):
+        read_frame(tmp_path / "cut.jpg")
+    sof = data.index(b"\xff\xc0")
+    huge = bytearray(data)
+    huge[sof + 5:sof + 9] = (30000).to_bytes(2, "big") + (30000).to_bytes(2, "big")
+    (tmp_path / "huge.jpg").write_bytes(bytes(huge))
+    with pytest.raises(FrameReadError, match="declares 30000x30000 pixels"):
+        read_frame(tmp_path / "huge.jpg", max_pixels=10**8)
+    twelve = bytearray(data)
+    twelve[sof + 4] = 12
+    (tmp_path / "twelve.jpg").write_bytes(bytes(twelve))
+    with pytest.raises(FrameReadError, match="12-bit samples"):
+        read_frame(tmp_path / "twelve.jpg")
+    (tmp_path / "headless.jpg").write_bytes(data[:2] + data[sof + 2 + int.from_bytes(data[sof + 2:sof + 4], "big"):])
+    with pytest.raises(FrameReadError, match="headless.jpg: corrupt JPEG \\(no frame header"):
+        read_frame(tmp_path / "headless.jpg")
 
 
 def test_directory_and_tiny_image(tmp_path):
