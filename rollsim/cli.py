@@ -450,12 +450,14 @@ def _video_input_frames(video: Path, args, default_count: Optional[int], notes: 
     return itertools.islice(frames, default_count)
 
 
-def _add_video_input(parser: argparse.ArgumentParser, default: str = "to the end") -> None:
-    """--start, --frames and --rotate for a video given as FRAMES."""
+def _add_video_input(parser: argparse.ArgumentParser, default: str = "to the end", stills: bool = True) -> None:
+    """--start, --frames and --rotate for a video given as FRAMES (``stills``: --rotate turns stills too)."""
     _add_video_range(parser, default)
     parser.add_argument("--rotate", type=int, choices=(0, 90, 180, 270), default=None,
-                        help="video input: turn each frame clockwise by this many degrees (default: the "
-                             "container's rotation)")
+                        help="turn each frame clockwise by this many degrees (default: a video's rotation in its "
+                             "container, else a quarter turn where the stripes run along the columns)" if stills
+                        else "video input: turn each frame clockwise by this many degrees (default: the "
+                             "container's rotation, else a quarter turn where the stripes run along the columns)")
 
 
 def cmd_estimate_row_time(args) -> int:
@@ -463,6 +465,7 @@ def cmd_estimate_row_time(args) -> int:
     from decoder import FrameReadError, RowTimeError, estimate_row_time, read_frame
 
     from rollsim.stages.decode import frame_pixel_limit
+    from rollsim.video.read import upright_frames
 
     if not (math.isfinite(args.clock_hz) and args.clock_hz > 0):
         raise RollsimError(f"--clock-hz = {args.clock_hz}: must be a finite number > 0")
@@ -482,8 +485,10 @@ def cmd_estimate_row_time(args) -> int:
                 skipped.append(str(exc))
                 print(f"rollsim: skipped frame: {exc}", file=sys.stderr)
 
+    frames = readable_frames() if video is not None else upright_frames(readable_frames(), args.rotate,
+                                                                          " ".join(args.frames), notes)
     try:
-        row_time_s, sigma_s = estimate_row_time(readable_frames(), args.clock_hz)
+        row_time_s, sigma_s = estimate_row_time(frames, args.clock_hz)
     except RowTimeError as exc:
         raise RollsimError(str(exc)) from None
     for line in notes:
@@ -542,6 +547,12 @@ def cmd_fit_camera(args) -> int:
         if image.dtype != np.uint8:
             raise RollsimError(f"{path}: fit-camera reads 8-bit frames (a camera's processed output), got 16-bit")
         frames.append(image)
+    if video is None:
+        from rollsim.video.read import upright_frames
+
+        frames = list(upright_frames(frames, args.rotate, " ".join(args.frames), notes))
+        for line in notes:
+            print(f"rollsim: note: {line}", file=sys.stderr)
     base = load_scene(args.scene, args.overrides)
     frame_period_us = 1e6 / (frame_rate_hz or base.camera.frame_rate_hz)
     if exposure_us is not None and exposure_us >= frame_period_us:
@@ -966,7 +977,7 @@ def _add_pixel_commands(sub) -> None:
     p = sub.add_parser("decode", help="decode the PHY-SDUs of a directory of frames into DIR/decoded.jsonl")
     p.add_argument("dir", metavar="DIR", help="a render directory (frames/*.png or frames.mp4), a folder of PNG "
                    "or JPEG frames, or a video file")
-    _add_video_input(p)
+    _add_video_input(p, stills=False)
     p.add_argument("--scene", metavar="FILE", default=None,
                    help="scene giving the link and camera (default: DIR/scene.resolved.yaml)")
     p.add_argument("--clock-hz", type=float, default=None, help="chip rate in Hz (overrides the scene)")

@@ -112,3 +112,17 @@ def test_jpeg_stills_decode_and_give_the_row_time(frames, tmp_path, capsys):
     folder = _write_stills(tmp_path / "stills", frames, [None] * len(frames))
     assert main(["estimate-row-time", str(folder), "--clock-hz", "2500", "--json", str(tmp_path / "rt.json")]) == 0
     assert json.loads((tmp_path / "rt.json").read_text())["row_time_us"] == pytest.approx(30.0, rel=0.005)
+
+
+def test_stills_whose_stripes_run_along_the_columns_are_turned_and_said_so(frames, tmp_path, capsys):
+    # A phone that stored its portrait stills turned: the rolling shutter's rows are the image's columns.
+    turned = [np.ascontiguousarray(np.rot90(f, k=1)) for f in frames]  # a quarter turn anticlockwise
+    folder = _write_stills(tmp_path / "portrait", turned, [None] * len(turned))
+    assert main(["estimate-row-time", str(folder), "--clock-hz", "2500", "--json", str(tmp_path / "rt.json")]) == 0
+    assert json.loads((tmp_path / "rt.json").read_text())["row_time_us"] == pytest.approx(30.0, rel=0.005)
+    assert "the stripes run along the columns: frames turned 90 degrees clockwise" in capsys.readouterr().err
+    # Told the other way round, the rows are read upside down: the same period.
+    assert main(["estimate-row-time", str(folder), "--clock-hz", "2500", "--rotate", "270", "--json",
+                 str(tmp_path / "rt2.json"), "--force"]) == 0
+    assert json.loads((tmp_path / "rt2.json").read_text())["row_time_us"] == pytest.approx(30.0, rel=0.005)
+    assert "stripes run along" not in capsys.readouterr().err

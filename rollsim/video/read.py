@@ -14,7 +14,7 @@ import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Iterator, Optional
+from typing import Iterable, Iterator, Optional
 
 import numpy as np
 
@@ -22,7 +22,7 @@ from rollsim.errors import RollsimError, short_repr
 from rollsim.video.pixels import decoded_array
 
 __all__ = ["VIDEO_SUFFIXES", "VideoInfo", "count_video_frames", "is_video_file", "probe_video", "read_video_frames",
-           "recording_settings", "stripes_run_along_columns"]
+           "recording_settings", "stripes_run_along_columns", "upright_frames"]
 
 # Files taken for video by their name (a directory holding one stands for it).
 VIDEO_SUFFIXES = (".mp4", ".mkv", ".mov", ".m4v", ".avi", ".webm")
@@ -268,12 +268,23 @@ def read_video_frames(path: Path, start: int = 0, count: Optional[int] = None, r
     if rotate_deg is not None or info.rotation_deg:
         yield from frames
         return
-    # No rotation given: a recording turned without saying so shows its
-    # stripes along the columns.
+    yield from upright_frames(frames, None, str(path), notes)
+
+
+def upright_frames(frames: Iterable[np.ndarray], rotate_deg: Optional[int], source: str,
+                   notes: Optional[list] = None) -> Iterator[np.ndarray]:
+    """``frames`` turned clockwise by ``rotate_deg``; where it is None, by a quarter turn if the first two
+    frames' stripes run along the columns (:func:`stripes_run_along_columns`: a recording or a still
+    turned without saying so), said in ``notes`` as read from ``source``."""
+    frames = iter(frames)
+    if rotate_deg is not None:
+        yield from (_upright(frame, rotate_deg) for frame in frames)
+        return
     head = list(itertools.islice(frames, 2))
-    if len(head) == 2 and stripes_run_along_columns(*head):
+    # Frames of two sizes are not compared (the reader refuses them in its own words).
+    if len(head) == 2 and np.shape(head[0]) == np.shape(head[1]) and stripes_run_along_columns(*head):
         if notes is not None:
-            notes.append(f"{path}: the stripes run along the columns: frames turned 90 degrees clockwise "
+            notes.append(f"{source}: the stripes run along the columns: frames turned 90 degrees clockwise "
                          "(--rotate 270 turns them the other way)")
         yield from (_upright(frame, 90) for frame in itertools.chain(head, frames))
     else:
