@@ -126,3 +126,18 @@ def test_stills_whose_stripes_run_along_the_columns_are_turned_and_said_so(frame
                  str(tmp_path / "rt2.json"), "--force"]) == 0
     assert json.loads((tmp_path / "rt2.json").read_text())["row_time_us"] == pytest.approx(30.0, rel=0.005)
     assert "stripes run along" not in capsys.readouterr().err
+
+
+def test_a_render_saved_as_jpeg_stills_decodes(tmp_path, capsys):
+    # paper-default's frames as a camera app saves them: decoded from the JPEGs with the scene beside them.
+    from rollsim.cli import main as cli
+
+    assert cli(["render", "paper-default", "--frames", "3", "--out", str(tmp_path / "run")]) == 0
+    stills = tmp_path / "stills"
+    stills.mkdir()
+    for k, png in enumerate(sorted((tmp_path / "run" / "frames").glob("*.png"))):
+        Image.open(png).save(stills / f"IMG_{k:04d}.jpg", quality=95)
+    assert cli(["decode", str(stills), "--scene", str(tmp_path / "run" / "scene.resolved.yaml")]) == 0
+    records = [json.loads(line) for line in (stills / "decoded.jsonl").read_text().splitlines()]
+    assert {r["frame"] for r in records} == {0, 1, 2}
+    assert sum(r.get("check_ok", False) for r in records) > 0
