@@ -557,10 +557,12 @@ def cmd_fit_camera(args) -> int:
     frame_period_us = 1e6 / (frame_rate_hz or base.camera.frame_rate_hz)
     if exposure_us is not None and exposure_us >= frame_period_us:
         told = f"--exposure-us = {exposure_us:g}" if args.exposure_us is not None else \
-            f"the stills' EXIF exposure time, {exposure_us:g} us,"
+            f"the stills' EXIF exposure time ({exposure_us:g} us)"
         raise RollsimError(f"{told}: not shorter than the frame period {frame_period_us:.1f} us" + (
             "" if video is not None else f" (the base scene's {base.camera.frame_rate_hz:g} frames/s; "
                                          "--set camera.frame_rate_hz=... lowers it)"))
+    if exposure_us is not None and args.exposure_us is None:
+        print(f"rollsim: fit-camera: exposure {exposure_how}", file=sys.stderr)
     try:
         fit = fit_camera(frames, args.clock_hz, base, iterations=args.iterations,
                          progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True),
@@ -610,7 +612,6 @@ def _still_exposure(paths: Sequence[Path], given_us: Optional[float]) -> tuple[O
         return given_us, "held as given"
     if recorded is None:
         return None, ""
-    print(f"rollsim: fit-camera: {exposure_how(recorded, settings)}", file=sys.stderr)
     return recorded, exposure_how(recorded, settings)
 
 
