@@ -141,3 +141,11 @@ def test_a_render_saved_as_jpeg_stills_decodes(tmp_path, capsys):
     records = [json.loads(line) for line in (stills / "decoded.jsonl").read_text().splitlines()]
     assert {r["frame"] for r in records} == {0, 1, 2}
     assert sum(r.get("check_ok", False) for r in records) > 0
+
+
+def test_an_exif_exposure_longer_than_the_frame_period_is_refused_in_one_line(frames, tmp_path, capsys):
+    folder = _write_stills(tmp_path / "stills", frames[:2], [0.1, 0.1])  # 1/10 s against 30 frames/s
+    assert main(["fit-camera", str(folder), "--clock-hz", "2500", "--out", str(tmp_path / "fit")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "EXIF exposure time (100000 us): not shorter than the frame period" in err
+    assert not (tmp_path / "fit").exists()
