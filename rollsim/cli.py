@@ -596,6 +596,7 @@ def cmd_fit_camera(args) -> int:
 def _still_exposure(paths: Sequence[Path], given_us: Optional[float]) -> tuple[Optional[float], str]:
     """The exposure the fit holds (µs, or None: fitted) and how it was told: ``--exposure-us``, else the
     one exposure the stills' EXIF records; refused in one line where the stills record different ones."""
+    from rollsim.fit.camera import HELD_AS_GIVEN
     from rollsim.fit.exif import exposure_how, locked_exposure_us, still_settings
 
     settings = [still_settings(p) for p in paths]  # their headers only; none for a video's frames
@@ -609,7 +610,7 @@ def _still_exposure(paths: Sequence[Path], given_us: Optional[float]) -> tuple[O
         if recorded is not None and abs(recorded - given_us) > 1e-3 * given_us:
             print(f"rollsim: note: --exposure-us {given_us:g} held; the stills' EXIF records {recorded:g} us",
                   file=sys.stderr)
-        return given_us, "held as given"
+        return given_us, HELD_AS_GIVEN
     if recorded is None:
         return None, ""
     return recorded, exposure_how(recorded, settings)

@@ -53,6 +53,8 @@ PROFILE_MIN_VARIATION = 0.05
 HALO_RADII = 1.8
 
 FRAMES, BASE, NOT_IDENTIFIED, GIVEN = "frames", "base scene", "not identified", "given"
+# How a value the user gave is found: it is not.
+HELD_AS_GIVEN = "held as given"
 
 
 @dataclass(frozen=True)
@@ -76,7 +78,7 @@ class Known:
 
     exposure_us: float | None = None
     tone_gamma: float | None = None
-    exposure_how: str = "held as given"
+    exposure_how: str = HELD_AS_GIVEN
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,8 @@ from rollsim.errors import SceneError
 from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.compression import jpeg_quality
-from rollsim.fit.camera import BASE, FRAMES, GIVEN, NOT_IDENTIFIED, Estimate, ExposureChoice, Known, Measured, \
-    NoiseFit, Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, exposure_alternatives_rows, \
+from rollsim.fit.camera import BASE, FRAMES, GIVEN, HELD_AS_GIVEN, NOT_IDENTIFIED, Estimate, ExposureChoice, Known, \
+    Measured, NoiseFit, Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, exposure_alternatives_rows, \
     exposure_choices, given_exposure_choice, level_ratio, levels_match, matched_terms, measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
@@ -558,7 +558,7 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
                                 cam.exposure_us / t_row_us, m.stripes_period_rows, choices)))
     tone_how = "exponent of the tone curve (1 linear, 2.4 sRGB, rollsim.fit.tone), "
     if known.tone_gamma is not None:
-        tone = Estimate(p.gamma, None, "", tone_how + "held as given", GIVEN)
+        tone = Estimate(p.gamma, None, "", tone_how + HELD_AS_GIVEN, GIVEN)
     else:
         tone = Estimate(p.gamma, unc.get("gamma"), "", tone_how + ("told by the noise against the level (photon "
                                                                    "transfer)" if m.stripes.gamma_given
