@@ -23,8 +23,9 @@ from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.compression import jpeg_quality
 from rollsim.fit.camera import BASE, FRAMES, GIVEN, HELD_AS_GIVEN, NOT_IDENTIFIED, Estimate, ExposureChoice, Known, \
-    Measured, NoiseFit, Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, exposure_alternatives_rows, \
-    exposure_choices, given_exposure_choice, level_ratio, levels_match, matched_terms, measure, noise_anchors
+    Measured, NoiseFit, Parameters, anchor_variance, branches_by_refined_levels, corrected, direct, \
+    exposure_alternatives_rows, exposure_choices, given_exposure_choice, level_ratio, levels_match, matched_terms, \
+    measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
 
