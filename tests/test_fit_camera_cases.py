@@ -148,6 +148,10 @@ def test_the_bench_draws_renders_fits_and_scores_hidden_cameras():
     for row in fitted:
         assert abs(row["row_time_error"]) < 0.02 and row["correlation"] > 0.5
         assert 0.5 < row["correlation_ceiling"] <= 1.0  # the truth rendered again: near 1 where noise is low
+        # The truth rendered again shows the frames' noise, read at the frames'
+        # levels (none to read where no LED row holds one level in two frames).
+        assert (row["truth_noise_error"] is None) == (row["temporal_noise_error"] is None)
+    assert abs(rows[2]["truth_noise_error"]) < 0.05
     assert summary["within_target"]["row time"] == sum(abs(r["row_time_error"]) <= 0.005 for r in fitted)
     assert summary["all_targets"] == sum(not misses(r) for r in fitted)
     text = format_rows(rows) + "\n" + format_summary(summary)

@@ -13,11 +13,26 @@ from rollsim.fit.noise import unclipped
 from rollsim.fit.refine import CameraFit
 
 
-def bright_rows_noise(levels: np.ndarray, variances: np.ndarray) -> float:
-    """Temporal noise (8-bit levels) of the brightest quarter of the points; 0 without points."""
-    if levels.size == 0:
+def bright_level_floor(levels: np.ndarray) -> float:
+    """The least level (8-bit) of the brightest quarter of the points; +inf without points."""
+    return float(np.percentile(levels, 75)) if levels.size else math.inf
+
+
+def bright_rows_noise(levels: np.ndarray, variances: np.ndarray, floor: float | None = None) -> float:
+    """Temporal noise (8-bit levels) of the points at or above ``floor``: RMS over them; 0 without any.
+
+    ``floor`` defaults to the points' own :func:`bright_level_floor`. Frames
+    and a render of them are compared at the frames' floor: through a tone
+    curve the noise in output levels depends on the level (sRGB's toe
+    multiplies a dark row's noise), so a render's own brightest quarter,
+    whose rows hold one level in two frames at other places, can reach down
+    into its dark rows and mix their noise in.
+    """
+    if floor is None:
+        floor = bright_level_floor(levels)
+    top = levels >= floor
+    if not np.any(top):
         return 0.0
-    top = levels >= np.percentile(levels, 75)
     return float(np.sqrt(np.mean(variances[top])))
 
 
@@ -135,12 +150,18 @@ def led_crop(fit: CameraFit, shape: tuple[int, int]) -> tuple[slice, slice]:
     return slice(r0, r1, step), slice(c0, c1, step)
 
 
-def output_noise(frames: Sequence[np.ndarray], fit: CameraFit) -> dict:
-    """The temporal and fixed-pattern noise of frames in the fit's regions, 8-bit levels: the LED's
-    brightest unclipped rows that hold one level in two frames, and the background where there is one."""
+def led_noise_points(frames: Sequence[np.ndarray], fit: CameraFit) -> tuple[np.ndarray, np.ndarray]:
+    """(level, temporal variance) of the LED's rows that hold one level in two frames, clear of the clips."""
     levels, variances = level_noise_pairs(frames, *fit.band)
     keep = unclipped(levels)
-    out = {"temporal_led_bright": bright_rows_noise(levels[keep], variances[keep])}
+    return levels[keep], variances[keep]
+
+
+def output_noise(frames: Sequence[np.ndarray], fit: CameraFit, bright_floor: float | None = None) -> dict:
+    """The temporal and fixed-pattern noise of frames in the fit's regions, 8-bit levels: the LED's
+    brightest unclipped rows that hold one level in two frames (those at or above ``bright_floor``,
+    by default their own brightest quarter: :func:`bright_rows_noise`), and the background where there is one."""
+    out = {"temporal_led_bright": bright_rows_noise(*led_noise_points(frames, fit), bright_floor)}
     if fit.background_block is not None:
         bg = temporal_noise(frames, *fit.background_block)
         mean_frame = np.mean(frames, axis=0)
@@ -148,6 +169,14 @@ def output_noise(frames: Sequence[np.ndarray], fit: CameraFit) -> dict:
                    column_pattern_background=column_pattern_std(mean_frame, *fit.background_block, len(frames),
                                                                 bg.pixel_std))
     return out
+
+
+def noise_beside(frames: Sequence[np.ndarray], other: Sequence[np.ndarray], fit: CameraFit) -> dict:
+    """name -> (frames' noise, the other frames'), :func:`output_noise`'s, the LED's rows of both
+    taken at or above the frames' :func:`bright_level_floor`."""
+    floor = bright_level_floor(led_noise_points(frames, fit)[0])
+    ours, theirs = output_noise(frames, fit), output_noise(other, fit, floor)
+    return {k: (ours[k], theirs[k]) for k in ours}
 
 
 def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
@@ -176,7 +205,6 @@ def compare(frames: Sequence[np.ndarray], fit: CameraFit) -> Comparison:
         rendered, sim = rendered_profiles(timed)
         aligned = [aligned_shift(a, b, fit.period_rows) for a, b in zip(real, sim)]
     correlations = tuple(r for r, _ in aligned)
-    ours, theirs = output_noise(frames, fit), output_noise(rendered, fit)
     crop = led_crop(fit, frames[0].shape)
     pair = (np.clip(frames[0][crop], 0, 255).astype(np.uint8), np.clip(rendered[0][crop], 0, 255).astype(np.uint8))
-    return Comparison(correlations, {k: (ours[k], theirs[k]) for k in ours}, (real[0], sim[0]), pair)
+    return Comparison(correlations, noise_beside(frames, rendered, fit), (real[0], sim[0]), pair)
