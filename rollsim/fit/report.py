@@ -116,6 +116,9 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
     for name, (ours, theirs) in comparison.noise.items():
         diff = f"{100 * (theirs / ours - 1):+.1f} %" if ours > 0 else ""
         lines.append(f"| {name} | {ours:.3f} | {theirs:.3f} | {diff} |")
+    if "temporal_led_bright" in comparison.noise:
+        lines += ["", "temporal_led_bright: the LED's rows that hold one level in two frames, clear of the clips; "
+                  "the frames' brightest quarter, and the rendered rows at or above its least level."]
     if fit.notes:
         lines += ["", "## Notes", ""] + [f"- {n}" for n in fit.notes]
     lines += ["", "Not fitted: glare, sharpening and compression; their effect on the edges and the noise is "
