@@ -157,25 +157,32 @@ def led_noise_points(frames: Sequence[np.ndarray], fit: CameraFit) -> tuple[np.n
     return levels[keep], variances[keep]
 
 
+def background_noise(frames: Sequence[np.ndarray], fit: CameraFit) -> dict:
+    """The background's temporal, row and column-pattern noise (8-bit levels); empty without a background."""
+    if fit.background_block is None:
+        return {}
+    bg = temporal_noise(frames, *fit.background_block)
+    mean_frame = np.mean(frames, axis=0)
+    return {"temporal_background": bg.pixel_std, "row_temporal_background": bg.row_std,
+            "column_pattern_background": column_pattern_std(mean_frame, *fit.background_block, len(frames),
+                                                            bg.pixel_std)}
+
+
 def output_noise(frames: Sequence[np.ndarray], fit: CameraFit, bright_floor: float | None = None) -> dict:
     """The temporal and fixed-pattern noise of frames in the fit's regions, 8-bit levels: the LED's
     brightest unclipped rows that hold one level in two frames (those at or above ``bright_floor``,
-    by default their own brightest quarter: :func:`bright_rows_noise`), and the background where there is one."""
-    out = {"temporal_led_bright": bright_rows_noise(*led_noise_points(frames, fit), bright_floor)}
-    if fit.background_block is not None:
-        bg = temporal_noise(frames, *fit.background_block)
-        mean_frame = np.mean(frames, axis=0)
-        out.update(temporal_background=bg.pixel_std, row_temporal_background=bg.row_std,
-                   column_pattern_background=column_pattern_std(mean_frame, *fit.background_block, len(frames),
-                                                                bg.pixel_std))
-    return out
+    by default their own brightest quarter: :func:`bright_rows_noise`), and :func:`background_noise`."""
+    return {"temporal_led_bright": bright_rows_noise(*led_noise_points(frames, fit), bright_floor),
+            **background_noise(frames, fit)}
 
 
 def noise_beside(frames: Sequence[np.ndarray], other: Sequence[np.ndarray], fit: CameraFit) -> dict:
     """name -> (frames' noise, the other frames'), :func:`output_noise`'s, the LED's rows of both
     taken at or above the frames' :func:`bright_level_floor`."""
-    floor = bright_level_floor(led_noise_points(frames, fit)[0])
-    ours, theirs = output_noise(frames, fit), output_noise(other, fit, floor)
+    levels, variances = led_noise_points(frames, fit)
+    floor = bright_level_floor(levels)
+    ours = {"temporal_led_bright": bright_rows_noise(levels, variances, floor), **background_noise(frames, fit)}
+    theirs = output_noise(other, fit, floor)
     return {k: (ours[k], theirs[k]) for k in ours}
 
 
