@@ -111,6 +111,28 @@ def test_an_led_filling_the_frame_has_no_disk():
     assert _region(frames, stripes).disk is None
 
 
+def test_a_crop_the_led_fills_across_is_placed_by_its_lit_rows_where_the_stripes_hide():
+    # Benchmark seed 2 camera 17: a 22-column crop, the LED's rows 52-394 of 410, its
+    # stripes faint against the pixel noise (the frames' swing is flat, no stripes found):
+    # the background above and below it is darker.
+    frames = _frames((410, 22), (11.0, 223.0), 171.0, background=20, amplitude=12, face=30, noise=8.0)
+    region = _region(frames, None)
+    assert region.disk is not None
+    assert region.disk.centre_x_px == pytest.approx(11.0)
+    assert region.disk.centre_y_px == pytest.approx(223.0, abs=3.0)
+    assert region.disk.radius_px == pytest.approx(171.0, rel=0.03)
+    assert region.block is not None and region.block[0].stop <= 223 - 171  # the rows above the LED
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_noisy_crop_the_led_fills_draws_no_disk_from_its_swing(seed):
+    # The LED fills a 22-column crop: the swing across its columns is noise, whose
+    # half-height run is a few columns; a disk drawn from it would not hold the stripes' rows.
+    frames = _frames((334, 22), (11.0, 167.0), 400.0, background=20, amplitude=12, face=30, noise=8.0, seed=seed)
+    stripes = moving_stripes(frames) or (slice(100, 250), 11.0)
+    assert _region(frames, stripes).disk is None
+
+
 def test_a_disk_whose_band_lies_outside_the_frame_is_refused_in_words():
     """A disk found wrongly (its centre beyond the frame's edge) leaves no band to read:
     a ValueError naming it, not the means of an empty slice."""

@@ -49,6 +49,8 @@ from rollsim.sensor.adc import full_scale_electrons
 # Radial profile bins (fractions of the radius) and the least variation worth an effect.
 PROFILE_BINS = 8
 PROFILE_MIN_VARIATION = 0.05
+# The fraction cut off each end of a ring's pixels before their mean (a hot pixel, a clipped one).
+PROFILE_TRIM = 0.1
 # The LED's halo (blur, glare) reaches this many radii from its centre: the background lies beyond.
 HALO_RADII = 1.8
 
@@ -116,7 +118,16 @@ def gain_per_full_scale(scene: Scene) -> float:
 
 def radial_profile(brightest_lin: np.ndarray, region: LedRegion, on_rows: np.ndarray, off_lin: float) -> list | None:
     """The LED's radial profile (radius / R, relative radiance) from the rows lit in the brightest frame,
-    or None when it is flat within :data:`PROFILE_MIN_VARIATION` or there is no disk."""
+    or None when it is flat within :data:`PROFILE_MIN_VARIATION`, there is no disk, or its halves
+    above and below the centre disagree by more than that.
+
+    Each ring's level is the trimmed mean of its pixels (:data:`PROFILE_TRIM` off each end): a
+    median of 8-bit pixels a few levels above the OFF level moves by a whole level, a quarter of
+    the ring's. The halves read other rows, so other stripe phases: a radiance profile is the
+    same in both, what the stripes' rows lent a ring is not.
+    """
+    from scipy.stats import trim_mean
+
     disk = region.disk
     if disk is None:
         return None
@@ -126,14 +137,24 @@ def radial_profile(brightest_lin: np.ndarray, region: LedRegion, on_rows: np.nda
     if inside.sum() < 50:
         return None
     edges = np.linspace(0.0, 0.9, PROFILE_BINS + 1)
-    index = np.digitize(r[inside], edges) - 1
-    values = brightest_lin[inside] - off_lin
-    medians = np.array([np.median(values[index == i]) if np.any(index == i) else np.nan for i in range(PROFILE_BINS)])
-    if np.any(~np.isfinite(medians)) or medians[0] <= 0:
+
+    def ring_levels(where: np.ndarray) -> np.ndarray:
+        index = np.digitize(r[where], edges) - 1
+        values = brightest_lin[where] - off_lin
+        return np.array([trim_mean(values[index == i], PROFILE_TRIM) if np.any(index == i) else np.nan
+                         for i in range(PROFILE_BINS)])
+
+    levels = ring_levels(inside)
+    if np.any(~np.isfinite(levels)) or levels[0] <= 0:
         return None
-    rel = np.clip(medians / medians[0], 0.0, None)
+    rel = np.clip(levels / levels[0], 0.0, None)
     if np.ptp(rel) < PROFILE_MIN_VARIATION:
         return None
+    above = yy + 0.5 < disk.centre_y_px
+    halves = [ring_levels(inside & above), ring_levels(inside & ~above)]
+    if all(np.all(np.isfinite(h)) for h in halves):
+        if np.max(np.abs(halves[0] - halves[1])) / levels[0] > PROFILE_MIN_VARIATION:
+            return None
     centres = 0.5 * (edges[:-1] + edges[1:])
     radii = np.concatenate([[0.0], centres, [1.0]])
     values_out = np.concatenate([[rel[0]], rel, [rel[-1]]])

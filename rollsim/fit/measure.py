@@ -328,6 +328,47 @@ def _disk_agrees(disk: LedDisk | None, stripes: tuple[slice, float], period_rows
             and abs(disk.centre_x_px - centre_col) <= disk.radius_px)
 
 
+def _disk_holds_stripes(disk: LedDisk, stripes: tuple[slice, float]) -> bool:
+    """Whether at least :data:`STRIPES_HELD` of the rows where the stripes move lie in the disk's rows."""
+    rows, _ = stripes
+    top, bottom = disk.centre_y_px - disk.radius_px, disk.centre_y_px + disk.radius_px
+    held = max(0.0, min(bottom, rows.stop) - max(top, rows.start))
+    return held >= STRIPES_HELD * (rows.stop - rows.start)
+
+
+# A disk drawn from the frames' swing is taken only where its rows hold this
+# much of the rows the stripes move in: noise swings too, and a flat swing
+# (an LED filling the crop) draws a run of a few of its rows or columns.
+STRIPES_HELD = 0.5
+
+
+def disk_from_lit_rows(brightest: np.ndarray, period_rows: float) -> LedDisk | None:
+    """The disk of an LED that spans a narrow crop's columns but not its rows, or None.
+
+    Down the crop (each row's mean over the columns of the brightest
+    frame, closed over a stripe period: a row the stripes left dark in
+    every frame counts, and the run is not widened), the LED's rows are the half-height run around the
+    brightest row (:func:`_half_run`); the background above and below it
+    is darker. Where the run reaches neither the top nor the bottom, it is
+    the chord through the crop's columns: taken as the diameter, the crop
+    centred on the LED (its centre column, the crop's). None where the run
+    reaches an edge (the LED fills the rows too, or the background outshines
+    it), or the lit run does not span the columns (a disk inside the frame,
+    which :func:`find_led_disk` places).
+    """
+    from scipy.ndimage import grey_closing
+
+    h, w = brightest.shape
+    down = grey_closing(np.asarray(brightest, dtype=np.float64).mean(axis=1),
+                        size=max(1, int(np.ceil(period_rows))) | 1, mode="nearest")
+    y0, y1 = _half_run(down, int(np.argmax(down)))
+    if y0 == 0 or y1 == h:
+        return None
+    if _half_run(brightest[y0:y1].mean(axis=0), w // 2) != (0, w):
+        return None
+    return LedDisk(0.5 * w, 0.5 * (y0 + y1), 0.5 * (y1 - y0), int(y1 - y0))
+
+
 def find_led_region(stack: np.ndarray, halo_radii: float, period_rows: float,
                     stripes: tuple[slice, float] | None = None) -> LedRegion:
     """The LED's disk (or that it fills the frame), its central band and a background block.
@@ -353,8 +394,10 @@ def find_led_region(stack: np.ndarray, halo_radii: float, period_rows: float,
     disk = None if fills else find_led_disk(brightest, background)
     if stripes is not None and not _disk_agrees(disk, stripes, period_rows):
         swung = disk_from_swing(brightest, darkest, stripes, period_rows)
-        if swung is not None:
+        if swung is not None and _disk_agrees(swung, stripes, period_rows) and _disk_holds_stripes(swung, stripes):
             disk = swung
+    if disk is None and fills:
+        disk = disk_from_lit_rows(brightest, period_rows)
     if disk is None:
         c0, c1 = (0, w) if w <= NARROW_COLUMNS else (int(0.2 * w), int(np.ceil(0.8 * w)))
         return LedRegion(None, (slice(0, h), slice(c0, c1)), None)
