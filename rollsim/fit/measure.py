@@ -303,6 +303,17 @@ def disk_from_swing(brightest: np.ndarray, darkest: np.ndarray, stripes: tuple[s
     down = maximum_filter1d(swing[:, x0:x1].mean(axis=1), size=max(1, int(np.ceil(period_rows))) | 1,
                             mode="nearest")
     y0, y1 = _half_run(down, (rows.start + rows.stop) // 2)
+    return _disk_of_runs((x0, x1), (y0, y1), (h, w))
+
+
+def _disk_of_runs(columns: tuple[int, int], rows: tuple[int, int], shape: tuple[int, int]) -> LedDisk | None:
+    """The disk whose lit runs of columns and of rows, [start, stop), are these in a frame of ``shape``.
+
+    A run clear of both of its edges is a diameter (the longer where both
+    are); a run that spans its whole axis is centred on it; a run cut by one
+    edge is centred a radius from the other. None when neither run is clear.
+    """
+    (x0, x1), (y0, y1), (h, w) = columns, rows, shape
     clear_x, clear_y = x0 > 0 and x1 < w, y0 > 0 and y1 < h
     if not (clear_x or clear_y):
         return None
@@ -328,45 +339,41 @@ def _disk_agrees(disk: LedDisk | None, stripes: tuple[slice, float], period_rows
             and abs(disk.centre_x_px - centre_col) <= disk.radius_px)
 
 
-def _disk_holds_stripes(disk: LedDisk, stripes: tuple[slice, float]) -> bool:
-    """Whether at least :data:`STRIPES_HELD` of the rows where the stripes move lie in the disk's rows."""
-    rows, _ = stripes
-    top, bottom = disk.centre_y_px - disk.radius_px, disk.centre_y_px + disk.radius_px
-    held = max(0.0, min(bottom, rows.stop) - max(top, rows.start))
-    return held >= STRIPES_HELD * (rows.stop - rows.start)
+def _centre_inside(disk: LedDisk, shape: tuple[int, int]) -> bool:
+    """Whether the disk's centre lies in the frame (a disk drawn from noise can lie beyond it)."""
+    return 0.0 <= disk.centre_x_px <= shape[1] and 0.0 <= disk.centre_y_px <= shape[0]
 
 
-# A disk drawn from the frames' swing is taken only where its rows hold this
-# much of the rows the stripes move in: noise swings too, and a flat swing
-# (an LED filling the crop) draws a run of a few of its rows or columns.
-STRIPES_HELD = 0.5
+def _disk_covers_stripes(disk: LedDisk, stripes: tuple[slice, float]) -> bool:
+    """Whether the centre of the stripes' rows, on their centre column, lies in the disk's
+    square: a lit run beside the LED (a brighter background) is not its disk."""
+    rows, centre_col = stripes
+    return (abs(disk.centre_x_px - centre_col) <= disk.radius_px
+            and abs(disk.centre_y_px - 0.5 * (rows.start + rows.stop)) <= disk.radius_px)
 
 
-def disk_from_lit_rows(brightest: np.ndarray, period_rows: float) -> LedDisk | None:
-    """The disk of an LED that spans a narrow crop's columns but not its rows, or None.
+def disk_from_lit_runs(brightest: np.ndarray, period_rows: float) -> LedDisk | None:
+    """The disk of an LED that spans the frame's rows or columns, but not both, by where it is lit; or None.
 
-    Down the crop (each row's mean over the columns of the brightest
-    frame, closed over a stripe period: a row the stripes left dark in
-    every frame counts, and the run is not widened), the LED's rows are the half-height run around the
-    brightest row (:func:`_half_run`); the background above and below it
-    is darker. Where the run reaches neither the top nor the bottom, it is
-    the chord through the crop's columns: taken as the diameter, the crop
-    centred on the LED (its centre column, the crop's). None where the run
-    reaches an edge (the LED fills the rows too, or the background outshines
-    it), or the lit run does not span the columns (a disk inside the frame,
-    which :func:`find_led_disk` places).
+    Down the frame, each row's mean over the columns of the brightest
+    frame, closed over a stripe period (a row the stripes left dark in
+    every frame counts, and the run is not widened); across it, each
+    column's mean over the lit rows. The LED's runs are the half-height
+    runs around the brightest row and column (:func:`_half_run`), and
+    the background beside them is darker. A run clear of both of its
+    frame's edges is the LED's diameter: in a narrow crop the chord through
+    its columns, taken as the diameter (the crop centred on the LED)
+    (:func:`_disk_of_runs`). None where neither run is clear (the LED
+    fills the frame, or the background outshines it).
     """
     from scipy.ndimage import grey_closing
 
-    h, w = brightest.shape
-    down = grey_closing(np.asarray(brightest, dtype=np.float64).mean(axis=1),
-                        size=max(1, int(np.ceil(period_rows))) | 1, mode="nearest")
+    brightest = np.asarray(brightest, dtype=np.float64)
+    down = grey_closing(brightest.mean(axis=1), size=max(1, int(np.ceil(period_rows))) | 1, mode="nearest")
     y0, y1 = _half_run(down, int(np.argmax(down)))
-    if y0 == 0 or y1 == h:
-        return None
-    if _half_run(brightest[y0:y1].mean(axis=0), w // 2) != (0, w):
-        return None
-    return LedDisk(0.5 * w, 0.5 * (y0 + y1), 0.5 * (y1 - y0), int(y1 - y0))
+    across = brightest[y0:y1].mean(axis=0)
+    x0, x1 = _half_run(across, int(np.argmax(across)))
+    return _disk_of_runs((x0, x1), (y0, y1), brightest.shape)
 
 
 def find_led_region(stack: np.ndarray, halo_radii: float, period_rows: float,
@@ -394,10 +401,12 @@ def find_led_region(stack: np.ndarray, halo_radii: float, period_rows: float,
     disk = None if fills else find_led_disk(brightest, background)
     if stripes is not None and not _disk_agrees(disk, stripes, period_rows):
         swung = disk_from_swing(brightest, darkest, stripes, period_rows)
-        if swung is not None and _disk_agrees(swung, stripes, period_rows) and _disk_holds_stripes(swung, stripes):
+        if swung is not None and _centre_inside(swung, shape):
             disk = swung
     if disk is None and fills:
-        disk = disk_from_lit_rows(brightest, period_rows)
+        lit = disk_from_lit_runs(brightest, period_rows)
+        if lit is not None and (stripes is None or _disk_covers_stripes(lit, stripes)):
+            disk = lit
     if disk is None:
         c0, c1 = (0, w) if w <= NARROW_COLUMNS else (int(0.2 * w), int(np.ceil(0.8 * w)))
         return LedRegion(None, (slice(0, h), slice(c0, c1)), None)
