@@ -124,6 +124,17 @@ def test_a_crop_the_led_fills_across_is_placed_by_its_lit_rows_where_the_stripes
     assert region.block is not None and region.block[0].stop <= 223 - 171  # the rows above the LED
 
 
+def test_an_led_spanning_the_rows_of_a_wide_frame_is_placed_by_its_lit_columns():
+    # A disk of radius 195 px cut by the top and bottom of a 120-row frame lights over half
+    # of its border, as an LED filling the frame would; its lit columns are its diameter.
+    frames = _frames((120, 600), (200.0, 60.0), 195.0, background=20, amplitude=80, face=30)
+    region = _region(frames, None)
+    assert region.disk is not None
+    assert region.disk.centre_x_px == pytest.approx(200.0, abs=2.0)
+    assert region.disk.centre_y_px == pytest.approx(60.0)
+    assert region.disk.radius_px == pytest.approx(195.0, rel=0.02)
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_a_noisy_crop_the_led_fills_keeps_a_band_inside_it(seed):
     # The LED fills a 22-column crop: the swing across its columns is noise, whose
