@@ -386,7 +386,10 @@ def find_led_region(stack: np.ndarray, halo_radii: float, period_rows: float,
     frames) checks the answer: a bright background lights the border as
     an LED filling the frame would, and a brighter blob than the LED draws
     the disk; where the stripes disagree, the disk is the one the frames'
-    swing draws around them (:func:`disk_from_swing`).
+    swing draws around them (:func:`disk_from_swing`), when its centre lies
+    in the frame. A lit border with no disk drawn is an LED that fills the
+    frame unless it spans only the rows or only the columns, where its lit
+    runs place it (:func:`disk_from_lit_runs`, over the stripes' centre).
 
     Raises
     ------
