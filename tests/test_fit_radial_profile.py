@@ -47,7 +47,7 @@ def test_a_falling_face_reads_its_fall():
     inner = (radii > 0.0) & (radii < 0.9)
     # Each ring's mean of 1 − 0.4 r² over its radii, relative to the central ring's.
     edges = np.linspace(0.0, 0.9, 9)
-    area_mean = [(lambda a, b: 1.0 - 0.4 * (a**2 + b**2) / 2.0)(a, b) for a, b in zip(edges[:-1], edges[1:])]
+    area_mean = [1.0 - 0.4 * (a**2 + b**2) / 2.0 for a, b in zip(edges[:-1], edges[1:])]
     np.testing.assert_allclose(values[inner], np.array(area_mean) / area_mean[0], atol=0.02)
 
 

@@ -298,12 +298,11 @@ def disk_from_swing(brightest: np.ndarray, darkest: np.ndarray, stripes: tuple[s
 
     swing = np.asarray(brightest, dtype=np.float64) - np.asarray(darkest, dtype=np.float64)
     rows, centre_col = stripes
-    h, w = swing.shape
     x0, x1 = _half_run(swing[rows].mean(axis=0), int(centre_col))
     down = maximum_filter1d(swing[:, x0:x1].mean(axis=1), size=max(1, int(np.ceil(period_rows))) | 1,
                             mode="nearest")
     y0, y1 = _half_run(down, (rows.start + rows.stop) // 2)
-    return _disk_of_runs((x0, x1), (y0, y1), (h, w))
+    return _disk_of_runs((x0, x1), (y0, y1), swing.shape)
 
 
 def _disk_of_runs(columns: tuple[int, int], rows: tuple[int, int], shape: tuple[int, int]) -> LedDisk | None:
