@@ -562,9 +562,8 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         tone = Estimate(p.gamma, None, "", tone_how + HELD_AS_GIVEN, GIVEN)
     else:
         tone = Estimate(p.gamma, unc.get("gamma"), "", tone_how + ("told by the noise against the level (photon "
-                                                                   "transfer)" if not m.stripes.gamma_from_edges
-                                                                   else "the curve, linear or sRGB, whose stripes "
-                                                                   "lie nearer the edges"))
+                                                                   "transfer)" if m.stripes.gamma_given
+                                                                   else "from the edges"))
     out = {
         "row_time_us": Estimate(t_row_us, m.row_time_sd_s * 1e6, "us", "stripe period of the square wave"),
         "exposure_us": exposure,

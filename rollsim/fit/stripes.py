@@ -130,11 +130,7 @@ class StripeFit:
         One-sigma uncertainty of ``exposure_rows``, ``smoothing_rows`` and
         ``gamma`` from the fit's Jacobian.
     gamma_given : bool
-        γ is held, not fitted: told by the frames' noise, given by the user,
-        or chosen by the edges between linear and sRGB.
-    gamma_from_edges : bool
-        γ was chosen by the edges: the curve, linear or sRGB, whose stripes
-        lie nearer the profiles.
+        γ was given (told by the frames' noise), not fitted.
     """
 
     exposure_rows: float
@@ -149,7 +145,6 @@ class StripeFit:
     rms_residual: float
     uncertainties: dict
     gamma_given: bool = False
-    gamma_from_edges: bool = False
 
     def swing_dn(self, period_rows: float) -> float:
         """The stripes' swing as the frames show it, 8-bit levels: the box's least and
@@ -366,7 +361,6 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
                                    for ph in phases]) - target
         return residuals
 
-    from_edges = gamma is None and (start is None or start.gamma_from_edges)
     if start is not None and start.gamma_given:
         gamma = start.gamma
     if start is not None:
@@ -375,11 +369,7 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     elif gamma is not None:
         layouts = [_Layout(sm, False, nk, n, gamma) for sm in (True, False)]
     else:
-        # A free γ trades against the exposure and the smoothing, and the
-        # edges seldom tell it (bench fit-camera: a third of the free fits
-        # far from the truth): each of the curves cameras have is fitted, and
-        # the nearer held.
-        layouts = [_Layout(sm, False, nk, n, g) for sm in (True, False) for g in (1.0, SRGB_GAMMA)]
+        layouts = [_Layout(sm, ga, nk, n) for sm in (True, False) for ga in (True, False)]
     fits = []
     for layout in layouts:
         if start is not None:
@@ -415,7 +405,7 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
         pass
     fit = StripeFit(float(e), float(s), float(g), float(np.median(on)), float(np.median(off)),
                     tuple(float(k) for k in knots), tuple(float(v) for v in on), tuple(float(v) for v in off),
-                    tuple(float(p % period_rows) for p in phases), rms, uncertainties, True, from_edges)
+                    tuple(float(p % period_rows) for p in phases), rms, uncertainties, gamma is not None)
     return whole_periods_removed(right_way_up(fit, period_rows), period_rows)
 
 
