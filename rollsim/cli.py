@@ -508,6 +508,7 @@ def cmd_fit_camera(args) -> int:
 
     from rollsim.stages.decode import frame_pixel_limit
     from rollsim.fit import Known, compare, fit_camera
+    from rollsim.fit.refine import MAX_BINNING_ROWS
     from rollsim.fit.tone import NAMED_GAMMAS
     from rollsim.fit.report import FILES, fit_outputs
     from rollsim.plumbing.outputs import check_directory_files, write_files
@@ -519,6 +520,8 @@ def cmd_fit_camera(args) -> int:
         raise RollsimError(f"--pattern = {args.pattern!r}: only 'square' is fitted")
     if args.exposure_us is not None and not (math.isfinite(args.exposure_us) and args.exposure_us > 0):
         raise RollsimError(f"--exposure-us = {args.exposure_us}: must be a finite number > 0")
+    if args.binning_rows is not None and not 1 <= args.binning_rows <= MAX_BINNING_ROWS:
+        raise RollsimError(f"--binning-rows = {args.binning_rows}: must be 1 to {MAX_BINNING_ROWS}")
     video = _input_video(args.frames)
     paths = [] if video is not None else _png_paths(args.frames)
     if video is None and len(paths) < 2:
@@ -553,6 +556,9 @@ def cmd_fit_camera(args) -> int:
         frames = list(upright_frames(frames, args.rotate, " ".join(args.frames), notes))
         for line in notes:
             print(f"rollsim: note: {line}", file=sys.stderr)
+    height = np.asarray(frames[0]).shape[0]
+    if args.binning_rows is not None and height % args.binning_rows:
+        raise RollsimError(f"--binning-rows = {args.binning_rows}: does not divide the frames' height, {height} rows")
     base = load_scene(args.scene, args.overrides)
     frame_period_us = 1e6 / (frame_rate_hz or base.camera.frame_rate_hz)
     if exposure_us is not None and exposure_us >= frame_period_us:
@@ -568,7 +574,7 @@ def cmd_fit_camera(args) -> int:
                          progress=lambda line: print(f"rollsim: fit-camera: {line}", file=sys.stderr, flush=True),
                          recording=recording, frame_rate_hz=frame_rate_hz,
                          known=Known(exposure_us, None if args.tone is None else NAMED_GAMMAS[args.tone],
-                                     exposure_how=exposure_how))
+                                     exposure_how=exposure_how, binning_rows=args.binning_rows))
         comparison = compare(frames, fit)
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
@@ -1047,6 +1053,9 @@ def _add_pixel_commands(sub) -> None:
     p.add_argument("--tone", choices=["linear", "srgb"], default=None,
                    help="the camera's tone curve, where known (linear: raw or machine-vision output; srgb: a "
                         "phone's or webcam's): held, not fitted")
+    p.add_argument("--binning-rows", type=int, default=None, metavar="K",
+                   help="rows the sensor reads as one, where known (a binned sensor mode, 1-8): held, not "
+                        "detected (default: seen in the frames where JPEG and smoothing leave it)")
     p.add_argument("--scene", default="paper-geometric",
                    help="base scene whose optics, LED geometry and distance are kept (default paper-geometric)")
     p.add_argument("--iterations", type=_non_negative_int, default=4,
@@ -1242,9 +1251,9 @@ def _add_bench_commands(sub) -> None:
     p.add_argument("--video", action="store_true",
                    help="record each camera's frames as a phone's H.264 video (17 Mb/s at 1080p30, the same "
                         "bits per pixel for other sizes), and fit them as such")
-    p.add_argument("--known", action="append", choices=["exposure", "tone"], default=[],
-                   help="tell the fit each hidden camera's exposure or tone curve, as a user who knows it does "
-                        "(fit-camera --exposure-us, --tone); repeatable")
+    p.add_argument("--known", action="append", choices=["exposure", "tone", "binning"], default=[],
+                   help="tell the fit each hidden camera's exposure, tone curve or binning, as a user who knows "
+                        "it does (fit-camera --exposure-us, --tone, --binning-rows); repeatable")
     p.add_argument("--max-height", type=_positive_int, default=2160,
                    help="largest frame height drawn, px (default 2160; smaller for a quick check)")
     p.add_argument("--workers", type=_workers, default=1, help="cameras fitted in parallel (default 1: one core)")

@@ -143,3 +143,23 @@ def test_stripes_of_an_unbinned_camera_stay_unbinned(smoothing_rows):
     unbinned = fit_stripes(profiles, rows, 17.5)
     fit, binning = binned_if_nearer(unbinned, profiles, rows, 17.5)
     assert binning == (1, 0) and fit is unbinned
+
+
+@pytest.mark.parametrize("offset", [0, 1])
+def test_a_given_binning_finds_its_groups_first_row(offset):
+    # Binning told (fit-camera --binning-rows 2), its groups' first row not:
+    # started from groups at row 0, the stripes' fit at the right offset
+    # leaves only the noise, the other the staircase's misfit. The exposure
+    # is read up to the reflection E <-> P - E (the refinement's choice).
+    from rollsim.fit.binning import nearest_offset
+    from rollsim.fit.stripes import fit_stripes
+
+    rows, profiles = _model_profiles((2, offset), seed=3 + offset, smoothing_rows=0.6)
+    from_row_0 = fit_stripes(profiles, rows, 17.5, binning=(2, 0))
+    fit, binning = nearest_offset(from_row_0, profiles, rows, 17.5, 2)
+    assert binning == (2, offset)
+    assert fit.rms_residual == pytest.approx(0.5, rel=0.2)  # the noise
+    assert min(abs(fit.exposure_rows - 7.7), abs(fit.exposure_rows - (17.5 - 7.7))) < 0.15
+    assert nearest_offset(from_row_0, profiles, rows, 17.5, 1) == (from_row_0, (1, 0))
+    if offset == 0:
+        assert fit is from_row_0  # kept as fitted, not fitted again

@@ -247,7 +247,7 @@ def run_camera(cam: HiddenCamera, video: bool = False, known: Sequence[str] = ()
     ``video``: the frames are recorded as a phone's video (:func:`video_recording`),
     and the fit is told the encoding, as a video file's header tells it.
     ``known``: what the fit is told of the camera, as a user who knows it
-    tells it (``exposure``, ``tone``; :class:`rollsim.fit.camera.Known`).
+    tells it (``exposure``, ``tone``, ``binning``; :class:`rollsim.fit.camera.Known`).
     """
     from rollsim.errors import RollsimError
     from rollsim.fit import Known, compare, fit_camera
@@ -264,7 +264,8 @@ def run_camera(cam: HiddenCamera, video: bool = False, known: Sequence[str] = ()
     started = time.perf_counter()
     try:
         told = Known(scene.camera.exposure_us if "exposure" in known else None,
-                     NAMED_GAMMAS["srgb" if cam.srgb else "linear"] if "tone" in known else None)
+                     NAMED_GAMMAS["srgb" if cam.srgb else "linear"] if "tone" in known else None,
+                     binning_rows=cam.binning_rows if "binning" in known else None)
         fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []), recording=recording,
                          frame_rate_hz=scene.camera.frame_rate_hz if video else None, known=told)
         seconds = time.perf_counter() - started

@@ -152,9 +152,47 @@ def binned_if_nearer(stripes: StripeFit, profiles: list[np.ndarray], rows: np.nd
         ``stripes`` and (1, 0), or the binned fit and (2, offset).
     """
     best, binning = stripes, (1, 0)
-    for offset in (0, 1):
-        trial = fit_stripes(profiles, rows, period_rows, start=stripes, binning=(2, offset))
+    for offset, trial in offset_fits(stripes, profiles, rows, period_rows, 2, (0, 1)):
         if trial.rms_residual <= BINNED_RESIDUAL_RATIO * stripes.rms_residual and \
                 trial.rms_residual < best.rms_residual:
             best, binning = trial, (2, offset)
     return best, binning
+
+
+def offset_fits(stripes: StripeFit, profiles: list[np.ndarray], rows: np.ndarray, period_rows: float,
+                k: int, offsets: Sequence[int]) -> list[tuple[int, StripeFit]]:
+    """The stripe model read with groups of ``k`` rows from each first row
+    in ``offsets``, each started from ``stripes``; ``[(offset, fit), …]``."""
+    return [(offset, fit_stripes(profiles, rows, period_rows, start=stripes, binning=(k, offset)))
+            for offset in offsets]
+
+
+def nearest_offset(stripes: StripeFit, profiles: list[np.ndarray], rows: np.ndarray, period_rows: float,
+                   k: int) -> tuple[StripeFit, tuple[int, int]]:
+    """Binning of ``k`` rows known (:class:`rollsim.fit.camera.Known`), its groups'
+    first row not: groups from row 0, as the fitted scene renders them, unless
+    another offset's stripe fit leaves at most :data:`BINNED_RESIDUAL_RATIO`
+    of its RMS residual (the staircase's misfit, as :func:`binned_if_nearer`
+    reads it). Where JPEG and smoothing round the staircase, the offsets'
+    fits differ by their noise, and the least residual would pick either.
+
+    Parameters
+    ----------
+    stripes : StripeFit
+        The stripes' fit with groups of ``k`` from row 0 (kept, or the start of the others).
+    profiles, rows, period_rows
+        As :func:`rollsim.fit.stripes.fit_stripes`.
+    k : int
+        Rows in a group.
+
+    Returns
+    -------
+    (StripeFit, (k, offset))
+    """
+    if k == 1:
+        return stripes, (1, 0)
+    fits = offset_fits(stripes, profiles, rows, period_rows, k, range(1, k))
+    offset, fit = min(fits, key=lambda f: f[1].rms_residual)
+    if fit.rms_residual > BINNED_RESIDUAL_RATIO * stripes.rms_residual:
+        return stripes, (k, 0)
+    return fit, (k, offset)

@@ -35,7 +35,7 @@ from typing import Sequence
 
 import numpy as np
 
-from rollsim.fit.binning import binned_if_nearer, detect_binning
+from rollsim.fit.binning import binned_if_nearer, detect_binning, nearest_offset
 from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, find_led_region, level_noise_pairs, \
     temporal_noise
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
@@ -76,11 +76,18 @@ class Known:
     exposure_how : str
         Who told the exposure, for ``fit.json``'s ``how`` (the user, or the
         stills' EXIF: :func:`rollsim.fit.exif.exposure_how`).
+    binning_rows : int, optional
+        Rows read as one (binned readout, a sensor mode's), where JPEG and
+        the ISP's smoothing hide the pairs from the frames
+        (:mod:`rollsim.fit.binning`); the groups start at row 0 unless
+        another offset's stripe fit is clearly nearer
+        (:func:`rollsim.fit.binning.nearest_offset`).
     """
 
     exposure_us: float | None = None
     tone_gamma: float | None = None
     exposure_how: str = HELD_AS_GIVEN
+    binning_rows: int | None = None
 
 
 @dataclass(frozen=True)
@@ -220,7 +227,7 @@ MIN_BAND_PERIODS = 2.0
 def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float, float],
             region: LedRegion | None = None, start: StripeFit | None = None,
             stripes_at: tuple[slice, float] | None = None, binning: tuple[int, int] | None = None,
-            tone_gamma: float | None = None) -> Measured:
+            tone_gamma: float | None = None, binning_known: bool = False) -> Measured:
     """The fit's statistics of a set of frames (see the module docstring, steps 1–5).
 
     ``row_time`` is the row time and its uncertainty (s, s), estimated first
@@ -231,7 +238,9 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     frames) checks the region found (:func:`rollsim.fit.measure.find_led_region`).
     ``binning`` (k, offset) skips its detection (:func:`rollsim.fit.binning.detect_binning`
     on ``frames``): colour frames' is seen on their luminance, rendered
-    frames' is what was rendered. ``tone_gamma`` (given by the user) is the
+    frames' is what was rendered; ``binning_known``: its k was given by the
+    user (:class:`Known`), the groups' first row row 0 unless the stripes
+    tell another (:func:`rollsim.fit.binning.nearest_offset`). ``tone_gamma`` (given by the user) is the
     tone curve's exponent the stripes are fitted with, instead of the one
     the noise tells. A ValueError says why frames cannot be
     measured: among others, an LED whose band holds fewer than
@@ -262,7 +271,9 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
         tone_from_noise(levels[keep], variances[keep]))
     stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning,
                           gamma=gamma)
-    if start is None and binning == (1, 0):
+    if start is None and binning_known:
+        stripes, binning = nearest_offset(stripes, profiles, np.arange(rows.start, rows.stop), period, binning[0])
+    elif start is None and binning == (1, 0):
         # Pairs that JPEG or smoothing hid from the rows' steps still show in the stripes' edges.
         stripes, binning = binned_if_nearer(stripes, profiles, np.arange(rows.start, rows.stop), period)
     if start is None:

@@ -52,6 +52,9 @@ GIVEN_EXPOSURE_ROWS = 2.0
 # rendered, must miss the other plane's exposure before that plane's fit
 # can replace it (:func:`plane_kept`).
 PLANE_SIGMAS = 3.0
+# The most rows a binned group holds, as a scene's camera.binning_rows
+# (rollsim.scene_sections.model).
+MAX_BINNING_ROWS = 8
 # A stripe swing under this (8-bit levels: half a level) shows no stripes in
 # 8-bit frames (:func:`mismatch`).
 MIN_SWING_DN = 0.5
@@ -129,7 +132,7 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     frame_rate_hz : float, optional
         The frames' rate (a video's); default the base scene's.
     known : Known, optional
-        What the user knows of the camera (the exposure, the tone curve):
+        What the user knows of the camera (the exposure, the tone curve, the binning):
         held, not fitted, and its source ``given``.
 
     Returns
@@ -139,8 +142,9 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     Raises
     ------
     ValueError
-        Fewer than two frames, frames of different sizes, or no square wave
-        to read (:class:`decoder.RowTimeError`, a ValueError).
+        Fewer than two frames, frames of different sizes, a binning given
+        that does not divide their height, or no square wave to read
+        (:class:`decoder.RowTimeError`, a ValueError).
     """
     from decoder import estimate_row_time
 
@@ -152,6 +156,10 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     shape = frames[0].shape
     if any(f.shape != shape for f in frames) or not (len(shape) == 2 or (len(shape) == 3 and shape[2] == 3)):
         raise ValueError("the frames must all be grey or all RGB images of one size")
+    if known.binning_rows is not None and not (1 <= known.binning_rows <= MAX_BINNING_ROWS
+                                               and shape[0] % known.binning_rows == 0):
+        raise ValueError(f"binning_rows = {known.binning_rows}: must be 1 to {MAX_BINNING_ROWS} and divide "
+                         f"the frames' height, {shape[0]} rows")
     # The cheap check first: without a square wave nothing is fitted.
     eight_bit = [np.clip(np.rint(f), 0, 255).astype(np.uint8) for f in frames]
     row_time = estimate_row_time(eight_bit, clock_hz)
@@ -161,21 +169,23 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     if colour:
         # Binned rows are seen on the luminance of colour frames: JPEG's
         # chroma is subsampled over pairs of rows (rollsim.fit.binning).
-        binning = detect_binning(as_fitted(frames, "luminance"))
+        binning = given_binning(known) or detect_binning(as_fitted(frames, "luminance"))
         shape = shape[:2]
         say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (colour); "
             "fitting the stripes and the noise in each colour plane")
         candidates = measured_planes(plane_shortlist(frames, 2.0 / (clock_hz * row_time[0])),
                                      lambda planes: measure(planes, clock_hz, row_time=row_time,
                                                             stripes_at=stripes_at, binning=binning,
-                                                            tone_gamma=known.tone_gamma))
+                                                            tone_gamma=known.tone_gamma,
+                                                            binning_known=known.binning_rows is not None))
     else:
         grey = as_fitted(frames, "grey")
-        binning = detect_binning(grey)
+        binning = given_binning(known) or detect_binning(grey)
         say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (grey); "
             "fitting the stripes and the noise")
         candidates = [("grey", grey, measure(grey, clock_hz, row_time=row_time, stripes_at=stripes_at,
-                                             binning=binning, tone_gamma=known.tone_gamma))]
+                                             binning=binning, tone_gamma=known.tone_gamma,
+                                             binning_known=known.binning_rows is not None))]
     # A video's codec is told by its file; stills saved as JPEG show their quality.
     jpeg = jpeg_quality(frames) if recording is None else None
     if jpeg is not None:
@@ -349,6 +359,12 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
         say(f"noise matched: ISO {scene.camera.iso:.0f}")
     return CameraFit(estimates(target, params, noise, scene, setting.base, choices, setting.known), scene, target,
                      notes + given_notes, channel, mismatch(target, rendered, params.gamma))
+
+
+def given_binning(known: Known) -> tuple[int, int] | None:
+    """The binning the user gave, groups from row 0 until the stripes choose
+    (:func:`rollsim.fit.binning.nearest_offset`); None: detected from the frames."""
+    return None if known.binning_rows is None else (known.binning_rows, 0)
 
 
 def given_exposure(known: Known, target: Measured) -> float | None:
@@ -599,9 +615,13 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
                                   "from the OFF rows' level (the ambient light on the LED's face)")
     if scene.effects.video_codec is None:  # a video's codec is its file's, not fitted
         out["jpeg_quality"] = jpeg_estimate(scene)
-    out["binning_rows"] = Estimate(float(scene.camera.binning_rows), None, "rows",
-                                   "rows in groups (binned readout): near-identical rows, the order of their "
-                                   "steps, or the stripes' edges in steps of two rows (rollsim.fit.binning)")
+    if known.binning_rows is not None:
+        out["binning_rows"] = Estimate(float(scene.camera.binning_rows), None, "rows",
+                                       "rows in groups (binned readout), " + HELD_AS_GIVEN, GIVEN)
+    else:
+        out["binning_rows"] = Estimate(float(scene.camera.binning_rows), None, "rows",
+                                       "rows in groups (binned readout): near-identical rows, the order of their "
+                                       "steps, or the stripes' edges in steps of two rows (rollsim.fit.binning)")
     out.update(led_geometry(m, scene))
     lens = base.camera
     for name, value, unit in (("focal_length_mm", lens.focal_length_mm, "mm"), ("f_number", lens.f_number, ""),

@@ -96,7 +96,7 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
              "", "## Estimates", "",
              "Source: `frames` (fitted to them), `base scene` (what frames of a square wave never show), "
              "`not identified` (what these frames do not show; the base scene's value is used) or `given` "
-             "(told, and held: `--exposure-us`, `--tone`).", "",
+             "(told, and held: `--exposure-us`, `--tone`, `--binning-rows`).", "",
              "| quantity | value | ± 1σ | unit | source | how, or why not |", "|---|---|---|---|---|---|"]
     for name, e in fit.estimates.items():
         unc = "" if e.uncertainty is None or not np.isfinite(e.uncertainty) else f"{e.uncertainty:.4g}"
