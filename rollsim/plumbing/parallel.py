@@ -22,6 +22,10 @@ from typing import Callable, Iterable, Iterator, Optional, Sequence
 
 from rollsim.plumbing import signals
 
+# How long a killed pool's own thread is awaited (s; it ends within
+# milliseconds once it sees its workers gone).
+MANAGER_JOIN_S = 5.0
+
 
 def default_workers(cap: Optional[int] = None) -> int:
     """Worker processes to use by default: one per core, at most ``cap`` if given."""
@@ -46,6 +50,7 @@ def terminate(pool: ProcessPoolExecutor) -> None:
     # The executor has no public way to stop running tasks before Python
     # 3.14 (terminate_workers); its process table is the only handle.
     processes = list((getattr(pool, "_processes", None) or {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
     pool.shutdown(wait=False, cancel_futures=True)
     for process in processes:
         with contextlib.suppress(Exception):
@@ -53,6 +58,12 @@ def terminate(pool: ProcessPoolExecutor) -> None:
     for process in processes:
         with contextlib.suppress(Exception):
             process.join(timeout=1.0)
+    # The executor's thread closes its wake-up pipe as it sees the workers
+    # gone; were it still doing so at the interpreter's exit, the exit hook
+    # would write to the closing pipe and print a traceback (EBADF) after the
+    # command's one-line error. Its end is awaited (briefly: the workers are dead).
+    if manager is not None:
+        manager.join(timeout=MANAGER_JOIN_S)
 
 
 @contextlib.contextmanager
