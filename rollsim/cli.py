@@ -507,7 +507,7 @@ def cmd_fit_camera(args) -> int:
     from decoder import FrameReadError, RowTimeError, read_frame
 
     from rollsim.stages.decode import frame_pixel_limit
-    from rollsim.fit import Known, compare, fit_camera
+    from rollsim.fit import Known, fit_camera
     from rollsim.fit.refine import MAX_BINNING_ROWS
     from rollsim.fit.tone import NAMED_GAMMAS
     from rollsim.fit.report import FILES, fit_outputs
@@ -575,7 +575,7 @@ def cmd_fit_camera(args) -> int:
                          recording=recording, frame_rate_hz=frame_rate_hz,
                          known=Known(exposure_us, None if args.tone is None else NAMED_GAMMAS[args.tone],
                                      exposure_how=exposure_how, binning_rows=args.binning_rows))
-        comparison = compare(frames, fit)
+        comparison = fit.checked()
     except (ValueError, RowTimeError) as exc:
         raise RollsimError(f"fit-camera: {exc}") from None
     write_files({str(k): v for k, v in fit_outputs(out, fit, comparison, args.clock_hz,

@@ -127,8 +127,8 @@ def test_stripes_edges_in_steps_of_two_rows_read_as_binned(offset):
 
     rows, profiles = _model_profiles((2, offset), seed=offset)
     unbinned = fit_stripes(profiles, rows, 17.5)
-    fit, binning = binned_if_nearer(unbinned, profiles, rows, 17.5)
-    assert binning == (2, offset)
+    fit, binning, ratio = binned_if_nearer(unbinned, profiles, rows, 17.5)
+    assert binning == (2, offset) and ratio == pytest.approx(fit.rms_residual / unbinned.rms_residual)
     assert fit.rms_residual <= BINNED_RESIDUAL_RATIO * unbinned.rms_residual
     assert fit.rms_residual == pytest.approx(0.5, rel=0.2)  # the noise
     assert fit.exposure_rows == pytest.approx(7.7, abs=0.1)
@@ -136,13 +136,13 @@ def test_stripes_edges_in_steps_of_two_rows_read_as_binned(offset):
 
 @pytest.mark.parametrize("smoothing_rows", [0.0, 1.5])
 def test_stripes_of_an_unbinned_camera_stay_unbinned(smoothing_rows):
-    from rollsim.fit.binning import binned_if_nearer
+    from rollsim.fit.binning import BINNED_RESIDUAL_RATIO, binned_if_nearer
     from rollsim.fit.stripes import fit_stripes
 
     rows, profiles = _model_profiles((1, 0), seed=7, smoothing_rows=smoothing_rows)
     unbinned = fit_stripes(profiles, rows, 17.5)
-    fit, binning = binned_if_nearer(unbinned, profiles, rows, 17.5)
-    assert binning == (1, 0) and fit is unbinned
+    fit, binning, ratio = binned_if_nearer(unbinned, profiles, rows, 17.5)
+    assert binning == (1, 0) and fit is unbinned and ratio > BINNED_RESIDUAL_RATIO
 
 
 @pytest.mark.parametrize("offset", [0, 1])

@@ -49,6 +49,12 @@ def test_a_saturated_led_filling_the_frame_is_fitted():
     hidden, fit = _fit("paper-default", [])
     _check_times(hidden, fit, 0.15)
     assert fit.estimates["on_level"].value > 1.0  # saturated, and modelled so
+    # Its glare keeps the render's correlation under 0.98, but its edges are
+    # far from steps of two rows: no second fit in pairs (its time saved).
+    from rollsim.fit.binned_trial import PAIRED_RATIO_MAX
+
+    assert fit.measured.paired_residual_ratio > PAIRED_RATIO_MAX
+    assert not any(note.startswith("Tried: fitted in pairs") for note in fit.notes)
 
 
 def test_narrow_binned_crops_of_an_led_filling_them_are_fitted():

@@ -250,7 +250,7 @@ def run_camera(cam: HiddenCamera, video: bool = False, known: Sequence[str] = ()
     tells it (``exposure``, ``tone``, ``binning``; :class:`rollsim.fit.camera.Known`).
     """
     from rollsim.errors import RollsimError
-    from rollsim.fit import Known, compare, fit_camera
+    from rollsim.fit import Known, fit_camera
     from rollsim.fit.tone import NAMED_GAMMAS
     from rollsim.render import render_frames
     from rollsim.scene import load_scene
@@ -269,7 +269,7 @@ def run_camera(cam: HiddenCamera, video: bool = False, known: Sequence[str] = ()
         fit = fit_camera(frames, cam.clock_hz, load_scene(BASE_SCENE, []), recording=recording,
                          frame_rate_hz=scene.camera.frame_rate_hz if video else None, known=told)
         seconds = time.perf_counter() - started
-        comparison = compare(frames, fit)
+        comparison = fit.checked()
     except (ValueError, RollsimError) as exc:  # a refusal (no square wave), or a fault the table shows
         row.update(fitted=False, refusal=str(exc), seconds=time.perf_counter() - started)
         return row

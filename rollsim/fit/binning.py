@@ -30,6 +30,7 @@ through JPEG 60 and a row of smoothing, reach 0.78–0.84
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
@@ -129,7 +130,7 @@ def detect_binning(frames: Sequence[np.ndarray]) -> tuple[int, int]:
 
 
 def binned_if_nearer(stripes: StripeFit, profiles: list[np.ndarray], rows: np.ndarray,
-                     period_rows: float) -> tuple[StripeFit, tuple[int, int]]:
+                     period_rows: float) -> tuple[StripeFit, tuple[int, int], float]:
     """The stripe fit with pairs of rows read as one, where the stripes' own shape asks for it.
 
     JPEG and the ISP's smoothing can hide a binned sensor's pairs from
@@ -148,15 +149,21 @@ def binned_if_nearer(stripes: StripeFit, profiles: list[np.ndarray], rows: np.nd
 
     Returns
     -------
-    (StripeFit, (k, offset))
-        ``stripes`` and (1, 0), or the binned fit and (2, offset).
+    (StripeFit, (k, offset), float)
+        ``stripes`` and (1, 0), or the binned fit and (2, offset); and the
+        least binned residual over the unbinned one (how far the edges are
+        from steps of two rows: :mod:`rollsim.fit.binned_trial` reads it).
     """
     best, binning = stripes, (1, 0)
-    for offset, trial in offset_fits(stripes, profiles, rows, period_rows, 2, (0, 1)):
+    fits = offset_fits(stripes, profiles, rows, period_rows, 2, (0, 1))
+    for offset, trial in fits:
         if trial.rms_residual <= BINNED_RESIDUAL_RATIO * stripes.rms_residual and \
                 trial.rms_residual < best.rms_residual:
             best, binning = trial, (2, offset)
-    return best, binning
+    least = min(trial.rms_residual for _, trial in fits)
+    # An exact unbinned fit (noise-free model frames) leaves no residual to divide by.
+    ratio = least / stripes.rms_residual if stripes.rms_residual > 0 else (1.0 if least == 0 else math.inf)
+    return best, binning, ratio
 
 
 def offset_fits(stripes: StripeFit, profiles: list[np.ndarray], rows: np.ndarray, period_rows: float,

@@ -217,6 +217,9 @@ class Measured:
     profile: list | None
     binning: tuple[int, int]  # binned readout seen: (k, offset of the first group); (1, 0) none
     stripes_period_rows: float  # the stripe period the stripes were fitted with
+    # The stripes' fit in pairs of rows over their fit in rows (residuals),
+    # where the frames' binning was neither told nor seen (else None).
+    paired_residual_ratio: float | None = None
 
 
 # The fewest stripe periods the LED's band must hold: the stripes' fit reads the
@@ -271,11 +274,13 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
         tone_from_noise(levels[keep], variances[keep]))
     stripes = fit_stripes(profiles, np.arange(rows.start, rows.stop), period, start=start, binning=binning,
                           gamma=gamma)
+    paired_ratio = None
     if start is None and binning_known:
         stripes, binning = nearest_offset(stripes, profiles, np.arange(rows.start, rows.stop), period, binning[0])
     elif start is None and binning == (1, 0):
         # Pairs that JPEG or smoothing hid from the rows' steps still show in the stripes' edges.
-        stripes, binning = binned_if_nearer(stripes, profiles, np.arange(rows.start, rows.stop), period)
+        stripes, binning, paired_ratio = binned_if_nearer(stripes, profiles, np.arange(rows.start, rows.stop),
+                                                          period)
     if start is None:
         # Ends of the band the square wave does not hold (an LED's rim in a
         # crop it fills, a halo) are left out; rendered frames are measured
@@ -305,7 +310,7 @@ def measure(frames: Sequence[np.ndarray], clock_hz: float, row_time: tuple[float
     else:
         profile = radial_profile(linear_level(brightest, stripes.gamma), region, on_rows, stripes.off)
     return Measured(row_time_s, row_time_sd, region, background, stripes, levels[keep], variances[keep], bg_noise,
-                    row_noise, column, profile, binning, period)
+                    row_noise, column, profile, binning, period, paired_ratio)
 
 
 # --------------------------------------------------------------- parameters

@@ -14,11 +14,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
 from rollsim.errors import SceneError
+from rollsim.fit.binned_trial import TRIAL_BELOW, TRIAL_ROWS, found_in_pairs, paired_kept, trial_due
 from rollsim.fit.binning import detect_binning
 from rollsim.fit.channel import plane_shortlist
 from rollsim.fit.compression import jpeg_quality
@@ -28,6 +29,9 @@ from rollsim.fit.camera import BASE, FRAMES, GIVEN, HELD_AS_GIVEN, NOT_IDENTIFIE
     measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
 from rollsim.scene.model import Scene
+
+if TYPE_CHECKING:  # the check renders fits, and imports this module
+    from rollsim.fit.check import Comparison
 
 
 # Rounds of matching the noise alone once the best round is kept (each
@@ -70,6 +74,15 @@ class CameraFit:
     notes: list = field(default_factory=list)
     channel: str = "grey"  # what of the frames was fitted: grey, or a colour frame's plane (red, green, blue)
     mismatch: float = math.nan  # how far the fitted scene's render lies from the frames (:func:`mismatch`)
+    # The fit rendered and set beside the frames it was fitted to
+    # (:func:`rollsim.fit.check.compare`), where fit_camera made it.
+    comparison: Comparison | None = None
+
+    def checked(self) -> Comparison:
+        """:attr:`comparison`, which :func:`fit_camera` sets; a ValueError for a fit made otherwise."""
+        if self.comparison is None:
+            raise ValueError("this fit was not checked against its frames: use rollsim.fit.compare")
+        return self.comparison
 
     def grey(self, frames: Sequence[np.ndarray]) -> list[np.ndarray]:
         """``frames`` as the fit saw them (the chosen plane of colour frames), float64."""
@@ -138,6 +151,12 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     Returns
     -------
     CameraFit
+        With its :attr:`CameraFit.comparison` (rendered and set beside the
+        frames). Where the binning was neither told nor found and the
+        render's row profiles correlate under 0.98 with the frames', the
+        frames are fitted again in pairs of rows, and that fit is returned
+        where it matches them clearly better
+        (:mod:`rollsim.fit.binned_trial`).
 
     Raises
     ------
@@ -166,45 +185,86 @@ def fit_camera(frames: Sequence[np.ndarray], clock_hz: float, base: Scene, itera
     stripes_at = moving_stripes(eight_bit)
     del eight_bit
     colour = len(shape) == 3
-    if colour:
-        # Binned rows are seen on the luminance of colour frames: JPEG's
-        # chroma is subsampled over pairs of rows (rollsim.fit.binning).
-        binning = given_binning(known) or detect_binning(as_fitted(frames, "luminance"))
-        shape = shape[:2]
-        say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (colour); "
-            "fitting the stripes and the noise in each colour plane")
-        candidates = measured_planes(plane_shortlist(frames, 2.0 / (clock_hz * row_time[0])),
-                                     lambda planes: measure(planes, clock_hz, row_time=row_time,
-                                                            stripes_at=stripes_at, binning=binning,
-                                                            tone_gamma=known.tone_gamma,
-                                                            binning_known=known.binning_rows is not None))
-    else:
-        grey = as_fitted(frames, "grey")
-        binning = given_binning(known) or detect_binning(grey)
-        say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px (grey); "
-            "fitting the stripes and the noise")
-        candidates = [("grey", grey, measure(grey, clock_hz, row_time=row_time, stripes_at=stripes_at,
-                                             binning=binning, tone_gamma=known.tone_gamma,
-                                             binning_known=known.binning_rows is not None))]
+    shape = shape[:2]
+    say(f"row time {row_time[0] * 1e6:.4f} us from {len(frames)} frames of {shape[1]}x{shape[0]} px "
+        + ("(colour); fitting the stripes and the noise in each colour plane" if colour
+           else "(grey); fitting the stripes and the noise"))
     # A video's codec is told by its file; stills saved as JPEG show their quality.
     jpeg = jpeg_quality(frames) if recording is None else None
     if jpeg is not None:
         say(f"the frames were saved as JPEG of quality {jpeg}: the fit renders through it")
     setting = Refinement(base, shape, clock_hz, len(frames), iterations, say,
                          {"recording": recording, "frame_rate_hz": frame_rate_hz, "jpeg_quality": jpeg}, known)
+
+    def fitted_with(told: Known, binning: tuple[int, int]) -> CameraFit:
+        """The fit with ``binning`` (rows, offset), ``told`` what the user (or the trial) holds."""
+        def measured(planes: list[np.ndarray]) -> Measured:
+            return measure(planes, clock_hz, row_time=row_time, stripes_at=stripes_at, binning=binning,
+                           tone_gamma=told.tone_gamma, binning_known=told.binning_rows is not None)
+        if colour:
+            candidates = measured_planes(plane_shortlist(frames, 2.0 / (clock_hz * row_time[0])), measured)
+        else:
+            grey = as_fitted(frames, "grey")
+            candidates = [("grey", grey, measured(grey))]
+        return with_check(frames, planes_fitted(dataclasses.replace(setting, known=told), candidates))
+
+    # Binned rows are seen on the luminance of colour frames: JPEG's chroma
+    # is subsampled over pairs of rows (rollsim.fit.binning).
+    fit = fitted_with(known, given_binning(known) or detect_binning(as_fitted(frames, "luminance" if colour
+                                                                                else "grey")))
+    return binning_tried(fit, say,
+                         lambda: fitted_with(dataclasses.replace(known, binning_rows=TRIAL_ROWS), (TRIAL_ROWS, 0)))
+
+
+def planes_fitted(setting: Refinement, candidates: Sequence[tuple[str, list, Measured]]) -> CameraFit:
+    """The fit of each plane's statistics (``candidates``: channel, planes, statistics;
+    the most precise first), the one :func:`plane_kept` keeps."""
     fits = [refined(setting, candidates[0][0], candidates[0][2])]
     for channel, _, target in candidates[1:]:
         try:
             fits.append(refined(setting, channel, target))
         except (ValueError, SceneError) as exc:  # the most precise plane's fit stands alone
-            say(f"no fit in {channel}: {exc}")
+            setting.say(f"no fit in {channel}: {exc}")
     if len(fits) == 1:
         return fits[0]
-    kept, why = plane_kept(fits, len(frames))
-    say(f"kept the fit in {fits[kept].channel} (of {' and '.join(fit.channel for fit in fits)}): {why}")
+    kept, why = plane_kept(fits, setting.n_frames)
+    setting.say(f"kept the fit in {fits[kept].channel} (of {' and '.join(fit.channel for fit in fits)}): {why}")
     fits[kept].notes.append(f"Fitted in the {fits[kept].channel} plane, of the fits in "
                             f"{' and '.join(fit.channel for fit in fits)}: {why}.")
     return fits[kept]
+
+
+def with_check(frames: Sequence[np.ndarray], fit: CameraFit) -> CameraFit:
+    """``fit`` with its :attr:`CameraFit.comparison`: rendered and set beside ``frames``."""
+    from rollsim.fit.check import compare  # the check renders fits: it imports this module
+
+    fit.comparison = compare(frames, fit)
+    return fit
+
+
+def binning_tried(fit: CameraFit, say: Callable[[str], None],
+                  fit_in_pairs: Callable[[], CameraFit]) -> CameraFit:
+    """``fit``, or the frames' fit in pairs of rows (``fit_in_pairs``) where that matches
+    them clearly better (:mod:`rollsim.fit.binned_trial`)."""
+    correlation = min(fit.checked().correlations)
+    if not trial_due(fit.measured.paired_residual_ratio, fit.scene.camera.binning_rows,
+                     fit.scene.camera.height_px, correlation):
+        return fit
+    say(f"the fit's render correlates {correlation:.4f} with the frames' row profiles (< {TRIAL_BELOW:g}): "
+        "fitting them again in pairs of rows, as a binned readout reads them")
+    try:
+        paired = fit_in_pairs()
+    except (ValueError, SceneError) as exc:
+        say(f"no fit in pairs of rows: {exc}")
+        return fit
+    kept, why = paired_kept((correlation, fit.mismatch), (min(paired.checked().correlations), paired.mismatch))
+    say(why)
+    if not kept:
+        fit.notes.append(f"Tried: {why}; the fit in rows is kept.")
+        return fit
+    paired.estimates["binning_rows"] = found_in_pairs(TRIAL_ROWS, why)
+    paired.notes.append(f"Binned readout found by a second fit: {why}.")
+    return paired
 
 
 def plane_kept(fits: Sequence[CameraFit], n_frames: int) -> tuple[int, str]:
