@@ -127,22 +127,13 @@ MAX_RIM_EDGES = 4
 # 1–6 DN below 255 (rollsim bench fit-camera, seed 1, camera 26; its stripe
 # period is 117 rows).
 CLIPPED_DN = 8.0
-# The spectral guess's second try takes the slow level off with a running
-# mean as long as the longest period it seeks (a quarter of the profile),
-# which leaves that period whole. Its first, over an eighth, removes much
-# of a period longer than that and little of its harmonic: a saturated
-# LED's stripes of 21.8 rows, clipped ON plateaus of 16 rows between OFF
-# dips of 6, over a region of 128 rows, are guessed at their second
-# harmonic, whose edges fit no period (rollsim bench fit-camera, seed 5,
-# camera 24: refused, and read within 0.06 % with the second try).
-SLOW_FRACTION_WIDE = 1 / 4
 
 
 class RowTimeError(ValueError):
     """No frame gave a row-time estimate."""
 
 
-def spectral_period_rows(values: np.ndarray, min_period: float = 2.5, slow_fraction: float = 1 / 8) -> float | None:
+def spectral_period_rows(values: np.ndarray, min_period: float = 2.5) -> float | None:
     """Period in rows of the strongest oscillation of a profile.
 
     Parameters
@@ -150,10 +141,6 @@ def spectral_period_rows(values: np.ndarray, min_period: float = 2.5, slow_fract
     values : ndarray, shape (n,)
     min_period : float
         Shortest period considered, in rows.
-    slow_fraction : float
-        The running mean taken off first (the slow level), as a fraction of
-        the profile's length. A mean over fewer rows than a period removes
-        much of that period and little of its harmonics (:data:`SLOW_FRACTION_WIDE`).
 
     Returns
     -------
@@ -164,7 +151,7 @@ def spectral_period_rows(values: np.ndarray, min_period: float = 2.5, slow_fract
     if n < 16:
         return None
     # Remove the slow level (vignetting, footprint) before looking for stripes.
-    detrended = values - uniform_filter1d(values, max(3, int(n * slow_fraction)), mode="nearest")
+    detrended = values - uniform_filter1d(values, max(3, n // 8), mode="nearest")
     return peak_period_rows(detrended, min_period, n / 4.0)
 
 
@@ -544,23 +531,15 @@ def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES,
     rows = led_rows(profile.values, profile.noise)
     profile = RowProfile(profile.first_row + rows.start, profile.values[rows], profile.noise[rows], profile.channel)
     profile, k = binned_profile(profile)
-    found = period_from_guess(profile, spectral_period_rows(profile.values), min_edges, full_scale_dn)
-    if found is None:
-        # Where the guess's edges fit no period, the guess may be a harmonic:
-        # guessed again with the slow level taken off over the longest period sought.
-        wide = spectral_period_rows(profile.values, slow_fraction=SLOW_FRACTION_WIDE)
-        found = period_from_guess(profile, wide, min_edges, full_scale_dn)
-    return None if found is None else (k * found[0], k * found[1], found[2])
-
-
-def period_from_guess(profile: RowProfile, guess_rows: float | None, min_edges: int,
-                      full_scale_dn: float | None) -> tuple[float, float, int] | None:
-    """:func:`edge_period_rows` from a spectral guess (None: none), in two passes: the
-    first regression sharpens the guess."""
-    if guess_rows is None:
+    guess = spectral_period_rows(profile.values)
+    if guess is None:
         return None
-    first = edge_period_rows(profile, guess_rows, min_edges, full_scale_dn)
-    return None if first is None else edge_period_rows(profile, first[0], min_edges, full_scale_dn)
+    # Two passes: the first regression sharpens the spectral guess.
+    first = edge_period_rows(profile, guess, min_edges, full_scale_dn)
+    if first is None:
+        return None
+    found = edge_period_rows(profile, first[0], min_edges, full_scale_dn)
+    return None if found is None else (k * found[0], k * found[1], found[2])
 
 
 def binned_profile(profile: RowProfile) -> tuple[RowProfile, int]:
