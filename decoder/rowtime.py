@@ -127,13 +127,30 @@ MAX_RIM_EDGES = 4
 # 1–6 DN below 255 (rollsim bench fit-camera, seed 1, camera 26; its stripe
 # period is 117 rows).
 CLIPPED_DN = 8.0
+# The spectral guess's second try takes the slow level off with a running
+# mean as long as the longest period it seeks (a quarter of the profile),
+# which leaves that period whole. Its first, over an eighth, removes much
+# of a period longer than that and little of its harmonic: a saturated
+# LED's stripes of 21.8 rows, clipped ON plateaus of 16 rows between OFF
+# dips of 6, over a region of 128 rows, are guessed at their second
+# harmonic, whose edges fit no period (rollsim bench fit-camera, seed 5,
+# camera 24: refused, and read within 0.06 % with the second try).
+SLOW_FRACTION_WIDE = 1 / 4
+# The second try is made only where clipped ON plateaus hold at least this
+# fraction of the LED's rows (0.67-0.73 on seed 5 camera 24): a wave that
+# clips that long is far from a sine, and its harmonic can outweigh it. A
+# wave that does not clip keeps its fundamental strongest, and a code's
+# frame may line up a longer "period" out of its runs under the wider mean
+# (a pulse-length code's ON runs of 37-40 rows and gaps of 3-8, unclipped,
+# read as a period of 46 rows: tests/decoder/test_rowtime_codes.py).
+MIN_CLIPPED_FRACTION_WIDE = 0.5
 
 
 class RowTimeError(ValueError):
     """No frame gave a row-time estimate."""
 
 
-def spectral_period_rows(values: np.ndarray, min_period: float = 2.5) -> float | None:
+def spectral_period_rows(values: np.ndarray, min_period: float = 2.5, slow_fraction: float = 1 / 8) -> float | None:
     """Period in rows of the strongest oscillation of a profile.
 
     Parameters
@@ -141,6 +158,10 @@ def spectral_period_rows(values: np.ndarray, min_period: float = 2.5) -> float |
     values : ndarray, shape (n,)
     min_period : float
         Shortest period considered, in rows.
+    slow_fraction : float
+        The running mean taken off first (the slow level), as a fraction of
+        the profile's length. A mean over fewer rows than a period removes
+        much of that period and little of its harmonics (:data:`SLOW_FRACTION_WIDE`).
 
     Returns
     -------
@@ -151,7 +172,7 @@ def spectral_period_rows(values: np.ndarray, min_period: float = 2.5) -> float |
     if n < 16:
         return None
     # Remove the slow level (vignetting, footprint) before looking for stripes.
-    detrended = values - uniform_filter1d(values, max(3, n // 8), mode="nearest")
+    detrended = values - uniform_filter1d(values, max(3, int(n * slow_fraction)), mode="nearest")
     return peak_period_rows(detrended, min_period, n / 4.0)
 
 
@@ -531,15 +552,32 @@ def profile_period_rows(profile: RowProfile, min_edges: int = MIN_EDGES,
     rows = led_rows(profile.values, profile.noise)
     profile = RowProfile(profile.first_row + rows.start, profile.values[rows], profile.noise[rows], profile.channel)
     profile, k = binned_profile(profile)
-    guess = spectral_period_rows(profile.values)
-    if guess is None:
-        return None
-    # Two passes: the first regression sharpens the spectral guess.
-    first = edge_period_rows(profile, guess, min_edges, full_scale_dn)
-    if first is None:
-        return None
-    found = edge_period_rows(profile, first[0], min_edges, full_scale_dn)
+    found = period_from_guess(profile, spectral_period_rows(profile.values), min_edges, full_scale_dn)
+    if found is None and clips_long(profile.values, full_scale_dn):
+        # Where the guess's edges fit no period, the guess of a clipped wave may be
+        # a harmonic: guessed again with the slow level taken off over the longest
+        # period sought.
+        wide = spectral_period_rows(profile.values, slow_fraction=SLOW_FRACTION_WIDE)
+        found = period_from_guess(profile, wide, min_edges, full_scale_dn)
     return None if found is None else (k * found[0], k * found[1], found[2])
+
+
+def clips_long(values: np.ndarray, full_scale_dn: float | None) -> bool:
+    """Whether at least :data:`MIN_CLIPPED_FRACTION_WIDE` of a profile's rows lie
+    within :data:`CLIPPED_DN` of the frame's full scale (False where it is not known)."""
+    if full_scale_dn is None or not np.size(values):
+        return False
+    return bool(np.mean(np.asarray(values) >= full_scale_dn - CLIPPED_DN) >= MIN_CLIPPED_FRACTION_WIDE)
+
+
+def period_from_guess(profile: RowProfile, guess_rows: float | None, min_edges: int,
+                      full_scale_dn: float | None) -> tuple[float, float, int] | None:
+    """:func:`edge_period_rows` from a spectral guess (None: none), in two passes: the
+    first regression sharpens the guess."""
+    if guess_rows is None:
+        return None
+    first = edge_period_rows(profile, guess_rows, min_edges, full_scale_dn)
+    return None if first is None else edge_period_rows(profile, first[0], min_edges, full_scale_dn)
 
 
 def binned_profile(profile: RowProfile) -> tuple[RowProfile, int]:

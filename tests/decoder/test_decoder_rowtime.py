@@ -7,7 +7,7 @@ from synth import core_saturated, make_transmitter, profile_from_chips, synth_fr
 
 from decoder import RowTimeError, estimate_row_time
 from decoder.profile import RowProfile
-from decoder.rowtime import profile_period_rows, runs_fit_a_square_wave, spectral_period_rows
+from decoder.rowtime import FEW_EDGES, clips_long, profile_period_rows, runs_fit_a_square_wave, spectral_period_rows
 
 # (clock Hz, row time s, exposure s): stripe periods of 2.5 to 25 rows,
 # exposures from a quarter chip to 1.5 chips.
@@ -157,6 +157,34 @@ def test_a_square_wave_saturated_in_its_core_gives_its_period(period_rows):
     values = 40.0 + 210.0 * level + rng.normal(0.0, 1.0, level.size)
     found = profile_period_rows(RowProfile(0, values, np.full(values.size, 1.0)))
     assert found is not None and found[0] == pytest.approx(period_rows, rel=0.002)
+
+
+def test_a_long_clipped_period_is_read_from_its_fundamental_not_its_harmonic():
+    # A saturated LED over a short region (rollsim bench fit-camera seed 5
+    # camera 24): 4.2 full scales, 10.88 rows a chip, an exposure of 0.96
+    # chips, 128 rows: clipped ON plateaus of ~16 rows between OFF dips of ~6.
+    rows_per_chip = 10.88
+    level = profile_from_chips([1, 0] * 8, rows_per_chip, 0.96 * rows_per_chip)[:128]
+    rng = np.random.default_rng(24)
+    values = np.clip(np.minimum(4.2 * level, 1.0) * 255.0 + rng.normal(0.0, 1.0, level.size), 0.0, 255.0)
+    # The first guess's running mean (an eighth of the profile, 16 rows)
+    # removes much of the 21.8-row period and little of its harmonic.
+    assert spectral_period_rows(values) == pytest.approx(rows_per_chip, rel=0.05)
+    assert spectral_period_rows(values, slow_fraction=1 / 4) == pytest.approx(2 * rows_per_chip, rel=0.05)
+    profile = RowProfile(0, values, np.full(values.size, 1.0))
+    found = profile_period_rows(profile, FEW_EDGES, full_scale_dn=255.0)
+    assert found is not None and found[0] == pytest.approx(2 * rows_per_chip, rel=0.005)
+    # The second guess only where the frame's full scale says the plateaus clip.
+    assert profile_period_rows(profile, FEW_EDGES) is None
+
+
+def test_the_second_guess_is_not_made_where_the_plateaus_do_not_clip():
+    rng = np.random.default_rng(5)
+    clipped = np.clip(np.tile([255.0] * 16 + [40.0] * 6, 6) + rng.normal(0, 1, 132), 0, 255)
+    assert clips_long(clipped, 255.0)
+    assert not clips_long(clipped, None)
+    assert not clips_long(0.7 * clipped, 255.0)  # the same shape below the clip
+    assert not clips_long(np.array([]), 255.0)
 
 
 def test_the_cli_refuses_data_frames(tmp_path, capsys):
