@@ -97,6 +97,15 @@ MAX_PERIOD_MISMATCH = 0.55
 PEAK_PROMINENCE = 0.25
 PEAK_NOISE_SIGMAS = 4.0
 MAX_PEAKS_PER_PERIOD = 1.25
+# A square wave shows in every frame of its LED that spans enough of its
+# periods: at MAJORITY_MIN_PERIODS or more, two edges a period less the
+# ends leave at least two more than MIN_EDGES whatever the stripes' phase.
+# So where fewer than half of the frames that show such an LED read one,
+# the one read is a code's runs lined up by chance (ON runs of 33-40 rows
+# between gaps of 2-8 at a period of 41 rows, in one frame of three). An
+# LED shorter than that may show too few edges in some frames (rollsim
+# bench fit-camera, seed 7 camera 17: 4.3 periods, read in one frame of six).
+MAJORITY_MIN_PERIODS = 6.0
 # Frames from which the stripes' region is found (decoder.stripe_region):
 # a dozen give its blocks' products a standard error small enough.
 REGION_FRAMES = 12
@@ -501,6 +510,31 @@ def channel_blocks(blocks: BlockImage, channel: int) -> BlockImage:
     return BlockImage(blocks.frame[..., channel], blocks.blocks[..., channel], blocks.factor)
 
 
+def led_region_rows(image) -> int:
+    """Rows of a frame's LED, 0 where it shows none: those of its largest region's row profile
+    between the background at its ends (:func:`led_rows`; the region as :func:`frame_period_rows`
+    finds it). A region of blocks reaches past the LED by up to a block and its glow."""
+    frame = as_frame_array(image)
+    blocks = block_means(frame, choose_factor(frame.shape[:2]))
+    regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
+    if not regions:
+        return 0
+    profile = row_profile(blocks, regions[0])
+    rows = led_rows(profile.values, profile.noise)
+    return rows.stop - rows.start
+
+
+def most_frames_agree(items: list, found: list) -> bool:
+    """Whether the frames that read a square wave (``found``, None where none) are at least half
+    of those that could: they, and those whose LED spans :data:`MAJORITY_MIN_PERIODS` periods
+    (the readings' median) or more."""
+    read = [f for f in found if f is not None]
+    period = float(np.median([f[0] for f in read]))
+    tall = sum(led_region_rows(_load(item)) >= MAJORITY_MIN_PERIODS * period
+               for item, f in zip(items, found) if f is None)
+    return 2 * len(read) >= len(read) + tall
+
+
 def _brightest_period(blocks: BlockImage, min_edges: int,
                       full_scale: float | None) -> tuple[float, float, int] | None:
     """:func:`profile_period_rows` over the largest LED region of ``blocks``, or None."""
@@ -728,6 +762,10 @@ def estimate_row_time(frames: Iterable, clock_hz: float) -> tuple[float, float]:
         # frames it read are read again on their brightest region.
         found = [_period_in(_load(item)) if r is not None else f for item, r, f in zip(items, in_region, found)]
     fewer = [f for f in found if f is not None]
+    if fewer and 2 * len(fewer) < len(found) and not most_frames_agree(items, found):
+        raise RowTimeError(f"only {len(fewer)} of {len(found)} frames show a square wave, and most of the "
+                           f"others an LED {MAJORITY_MIN_PERIODS:g} of its periods tall or more: "
+                           "its stripes are not a square wave's")
     read = [f for f in fewer if f[2] >= MIN_EDGES]
     if not read and len(fewer) >= 2 and 2 * len(fewer) >= len(found):
         # Fewer edges only where most frames agree they show the square wave:

@@ -7,7 +7,7 @@ from synth import core_saturated, make_transmitter, profile_from_chips, synth_fr
 
 from decoder import RowTimeError, estimate_row_time
 from decoder.profile import RowProfile
-from decoder.rowtime import FEW_EDGES, clips_long, profile_period_rows, runs_fit_a_square_wave, spectral_period_rows
+from decoder.rowtime import FEW_EDGES, clips_long, led_region_rows, most_frames_agree, profile_period_rows, runs_fit_a_square_wave, spectral_period_rows
 
 # (clock Hz, row time s, exposure s): stripe periods of 2.5 to 25 rows,
 # exposures from a quarter chip to 1.5 chips.
@@ -390,3 +390,24 @@ def test_frames_combined_by_inverse_variance_where_they_agree_and_evenly_where_t
     periods, errors = np.array([9.8, 10.0, 10.2, 10.1, 9.9, 10.3]), np.array([0.02, 0.02, 0.02, 0.02, 0.02, 0.001])
     period, sigma = combined_period(periods, errors)
     assert abs(period - periods.mean()) < 0.02 and sigma >= np.std(periods, ddof=1) / np.sqrt(periods.size)
+
+
+def _lit_band(rows: int, height: int = 400, width: int = 60) -> np.ndarray:
+    frame = np.full((height, width), 10, np.uint8)
+    top = (height - rows) // 2
+    frame[top:top + rows, 10:50] = 200
+    return frame
+
+
+def test_led_region_rows_measures_the_lit_rows():
+    assert led_region_rows(np.zeros((300, 300), np.uint8)) == 0
+    assert abs(led_region_rows(_lit_band(120)) - 120) <= 8  # a block and the profile's ends
+
+
+def test_a_reading_in_one_frame_of_three_stands_only_where_the_others_show_a_short_led():
+    # A period of 40 rows read in one frame: the others' LED spans 0.5 or 7.5 periods.
+    found = [(40.0, 0.1, 8), None, None]
+    short, tall = _lit_band(20), _lit_band(300)
+    assert most_frames_agree([tall, short, short], found)  # too few periods to show the edges
+    assert not most_frames_agree([tall, tall, tall], found)  # a square wave would show in them
+    assert most_frames_agree([tall, tall, tall], [(40.0, 0.1, 8), (40.0, 0.1, 8), None])
