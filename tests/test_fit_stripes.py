@@ -9,8 +9,9 @@ smoothing's derivative and left σ where it started.
 import numpy as np
 import pytest
 
-from rollsim.fit.stripes import StripeFit, fit_residuals, fit_stripes, right_way_up, rows_the_model_holds, \
-    stripe_profile
+from rollsim.fit.stripes import StripeFit, _smoothed, fit_residuals, fit_stripes, right_way_up, \
+    rows_the_model_holds, square_wave_box, stripe_profile, stripe_profiles
+from rollsim.fit.tone import encode
 
 PERIOD = 20.0
 
@@ -134,3 +135,25 @@ def test_the_residuals_of_an_exact_profile_are_nil():
     fit = fit_stripes([_profile(rows, 6.0, 0.9, phase=p) for p in (2.0, 9.0)], rows, PERIOD)
     residuals = fit_residuals(fit, [_profile(rows, 6.0, 0.9, phase=p) for p in (2.0, 9.0)], rows, PERIOD)
     assert residuals.shape == (2, 200) and np.max(np.abs(residuals)) < 0.05
+
+
+@pytest.mark.parametrize("smoothing_rows, gamma, binning", [(0.0, 1.0, (1, 0)), (1.3, 2.4, (1, 0)), (0.7, 2.2, (2, 1))])
+def test_the_frames_profiles_at_once_are_each_frames_profile(smoothing_rows, gamma, binning):
+    # The stripe fit evaluates every frame's profile in one call; each must be
+    # the very value the one-frame model gives (the fit's results unchanged).
+    rows = np.arange(40, 340)
+    knots = np.linspace(40, 339, 5)
+    on, off = np.array([1.4, 1.1, 0.9, 1.2, 0.6]), np.array([0.02, 0.05, 0.04, 0.01, 0.03])
+    phases = [0.0, 3.7, 11.25, -2.5]
+    together = stripe_profiles(rows, 12.3, phases, 4.1, smoothing_rows, gamma, on, off, knots, binning)
+    assert together.shape == (len(phases), rows.size)
+    k, offset = binning
+    exposed = rows - np.mod(rows - offset, k) if k > 1 else rows.astype(np.float64)
+    on_rows, off_rows = np.interp(rows, knots, on), np.interp(rows, knots, off)
+    for phase, profile in zip(phases, together):
+        # One frame's profile, step by step as the model states it.
+        level = off_rows + (on_rows - off_rows) * square_wave_box(exposed, 12.3, phase, 4.1)
+        alone = _smoothed(255.0 * encode(level, gamma), smoothing_rows)
+        assert np.array_equal(profile, alone)
+        assert np.array_equal(profile, stripe_profile(rows, 12.3, phase, 4.1, smoothing_rows, gamma, on, off, knots,
+                                                      binning))

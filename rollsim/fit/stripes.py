@@ -31,7 +31,7 @@ from scipy.optimize import OptimizeResult, least_squares
 from rollsim.fit.tone import SRGB_GAMMA, decode, encode
 
 
-__all__ = ["StripeFit", "fit_stripes", "square_wave_box", "stripe_profile"]
+__all__ = ["StripeFit", "fit_stripes", "square_wave_box", "stripe_profile", "stripe_profiles"]
 
 
 def _square_integral(t: np.ndarray, period: float) -> np.ndarray:
@@ -40,7 +40,8 @@ def _square_integral(t: np.ndarray, period: float) -> np.ndarray:
     return whole * (period / 2) + np.clip(t - whole * period, 0.0, period / 2)
 
 
-def square_wave_box(rows: np.ndarray, period_rows: float, phase_rows: float, exposure_rows: float) -> np.ndarray:
+def square_wave_box(rows: np.ndarray, period_rows: float, phase_rows: float | np.ndarray,
+                    exposure_rows: float) -> np.ndarray:
     """The square wave averaged over a box of ``exposure_rows`` ending at each row (0 … 1).
 
     Parameters
@@ -49,8 +50,8 @@ def square_wave_box(rows: np.ndarray, period_rows: float, phase_rows: float, exp
         Row indices (may be fractional).
     period_rows : float
         P, the square wave's period in rows.
-    phase_rows : float
-        φ: the wave is ON on [−φ, −φ + P/2) modulo P.
+    phase_rows : float or ndarray
+        φ: the wave is ON on [−φ, −φ + P/2) modulo P (an array broadcast against ``rows``).
     exposure_rows : float
         E, the exposure in rows, > 0.
     """
@@ -92,11 +93,19 @@ def model_kernel(sigma_rows: float) -> np.ndarray:
 
 
 def _smoothed(values: np.ndarray, sigma_rows: float) -> np.ndarray:
-    """``values`` smoothed by the ISP's Gaussian (mirrored ends, as :func:`rollsim.isp.smooth`)."""
+    """``values`` smoothed by the ISP's Gaussian (mirrored ends, as :func:`rollsim.isp.smooth`).
+
+    ``values``: one profile, or several (one a row of a 2-D array), each smoothed alone.
+    """
     if sigma_rows <= 0.05:
         return values
     kernel = model_kernel(sigma_rows)
     pad = kernel.size // 2
+    if values.ndim == 2:  # the kernel and the mirrored ends made once for all the profiles
+        if pad >= values.shape[1]:
+            return np.array([np.full_like(v, v.mean()) for v in values])
+        padded = np.pad(values, ((0, 0), (pad, pad)), mode="reflect")
+        return np.array([np.convolve(v, kernel, mode="valid") for v in padded])
     if pad >= values.size:
         return np.full_like(values, values.mean())
     padded = np.pad(values, pad, mode="reflect")
@@ -185,13 +194,28 @@ def stripe_profile(rows: np.ndarray, period_rows: float, phase_rows: float, expo
     rows in groups of k, the groups starting at rows offset + j·k, each row
     exposed as its group's first (binned readout).
     """
+    return stripe_profiles(rows, period_rows, [phase_rows], exposure_rows, smoothing_rows, gamma, on, off, knots,
+                           binning)[0]
+
+
+def stripe_profiles(rows: np.ndarray, period_rows: float, phases_rows: Sequence[float], exposure_rows: float,
+                    smoothing_rows: float, gamma: float, on, off, knots: np.ndarray | None = None,
+                    binning: tuple[int, int] = (1, 0)) -> np.ndarray:
+    """:func:`stripe_profile` for each of several frames' phases φ, shape (frames, rows).
+
+    The frames share everything but their phase, so the envelope and the
+    exposed rows are computed once: the stripe fit evaluates this at each
+    step of its least squares, the profiles of up to :data:`MAX_FIT_FRAMES`
+    frames at a time. Each value is the one :func:`stripe_profile` gives.
+    """
     rows = np.asarray(rows, dtype=np.float64)
     if knots is not None:
         on = np.interp(rows, knots, on)
         off = np.interp(rows, knots, off)
     k, offset = binning
     exposed = rows - np.mod(rows - offset, k) if k > 1 else rows
-    level = off + (on - off) * square_wave_box(exposed, period_rows, phase_rows, exposure_rows)
+    phases = np.asarray(phases_rows, dtype=np.float64)[:, None]
+    level = off + (on - off) * square_wave_box(exposed[None, :], period_rows, phases, exposure_rows)
     out = 255.0 * encode(level, gamma)
     return _smoothed(out, smoothing_rows)
 
@@ -357,8 +381,7 @@ def fit_stripes(profiles: list[np.ndarray], rows: np.ndarray, period_rows: float
     def make_residuals(layout):
         def residuals(x):
             e, s, g, on, off, phases = layout.unpack(x)
-            return np.concatenate([stripe_profile(rows, period_rows, ph, e, s, g, on, off, knots, binning)
-                                   for ph in phases]) - target
+            return stripe_profiles(rows, period_rows, phases, e, s, g, on, off, knots, binning).ravel() - target
         return residuals
 
     if start is not None and start.gamma_given:
