@@ -484,7 +484,7 @@ def frame_period_rows(image, min_edges: int = MIN_EDGES) -> tuple[float, float, 
     channel. Returns as :func:`profile_period_rows`.
     """
     frame = as_frame_array(image)
-    blocks = block_means(frame, choose_factor(frame.shape[:2]))
+    blocks = frame_blocks(frame)
     full_scale = full_scale_dn(frame)
     found = _brightest_period(blocks, min_edges, full_scale)
     if frame.ndim == 3:
@@ -514,12 +514,11 @@ def led_region_rows(image) -> int:
     """Rows of a frame's LED, 0 where it shows none: those of its largest region's row profile
     between the background at its ends (:func:`led_rows`; the region as :func:`frame_period_rows`
     finds it). A region of blocks reaches past the LED by up to a block and its glow."""
-    frame = as_frame_array(image)
-    blocks = block_means(frame, choose_factor(frame.shape[:2]))
-    regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
-    if not regions:
+    blocks = frame_blocks(as_frame_array(image))
+    region = largest_region(blocks)
+    if region is None:
         return 0
-    profile = row_profile(blocks, regions[0])
+    profile = row_profile(blocks, region)
     rows = led_rows(profile.values, profile.noise)
     return rows.stop - rows.start
 
@@ -532,17 +531,26 @@ def most_frames_agree(items: list, found: list) -> bool:
     period = float(np.median([f[0] for f in read]))
     tall = sum(led_region_rows(_load(item)) >= MAJORITY_MIN_PERIODS * period
                for item, f in zip(items, found) if f is None)
-    return 2 * len(read) >= len(read) + tall
+    return len(read) >= tall  # half of len(read) + tall
+
+
+def frame_blocks(frame: np.ndarray) -> BlockImage:
+    """A frame's block means at the factor its size calls for (:func:`decoder.region.choose_factor`)."""
+    return block_means(frame, choose_factor(frame.shape[:2]))
+
+
+def largest_region(blocks: BlockImage):
+    """The largest LED region of ``blocks`` (:func:`decoder.region.detect_regions`), or None."""
+    # The chip pitch is not known yet: the closing height for an unknown pitch.
+    regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
+    return regions[0] if regions else None
 
 
 def _brightest_period(blocks: BlockImage, min_edges: int,
                       full_scale: float | None) -> tuple[float, float, int] | None:
     """:func:`profile_period_rows` over the largest LED region of ``blocks``, or None."""
-    # The chip pitch is not known yet: the closing height for an unknown pitch.
-    regions = detect_regions(blocks, close_rows=float(DEFAULT_CLOSE_ROWS), max_regions=1)
-    if not regions:
-        return None
-    return profile_period_rows(row_profile(blocks, regions[0]), min_edges, full_scale)
+    region = largest_region(blocks)
+    return None if region is None else profile_period_rows(row_profile(blocks, region), min_edges, full_scale)
 
 
 def led_rows(values: np.ndarray, noise: np.ndarray) -> slice:

@@ -101,15 +101,13 @@ def _smoothed(values: np.ndarray, sigma_rows: float) -> np.ndarray:
         return values
     kernel = model_kernel(sigma_rows)
     pad = kernel.size // 2
-    if values.ndim == 2:  # the kernel and the mirrored ends made once for all the profiles
-        if pad >= values.shape[1]:
-            return np.array([np.full_like(v, v.mean()) for v in values])
-        padded = np.pad(values, ((0, 0), (pad, pad)), mode="reflect")
-        return np.array([np.convolve(v, kernel, mode="valid") for v in padded])
-    if pad >= values.size:
-        return np.full_like(values, values.mean())
-    padded = np.pad(values, pad, mode="reflect")
-    return np.convolve(padded, kernel, mode="valid")
+    profiles = np.atleast_2d(values)  # the kernel and the mirrored ends made once for all the profiles
+    if pad >= profiles.shape[1]:
+        out = np.array([np.full_like(v, v.mean()) for v in profiles])
+    else:
+        padded = np.pad(profiles, ((0, 0), (pad, pad)), mode="reflect")
+        out = np.array([np.convolve(v, kernel, mode="valid") for v in padded])
+    return out.reshape(values.shape)
 
 
 @dataclass(frozen=True)

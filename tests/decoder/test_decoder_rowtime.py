@@ -7,7 +7,8 @@ from synth import core_saturated, make_transmitter, profile_from_chips, synth_fr
 
 from decoder import RowTimeError, estimate_row_time
 from decoder.profile import RowProfile
-from decoder.rowtime import FEW_EDGES, clips_long, led_region_rows, most_frames_agree, profile_period_rows, runs_fit_a_square_wave, spectral_period_rows
+from decoder.rowtime import FEW_EDGES, clips_long, led_region_rows, most_frames_agree, profile_period_rows, \
+    runs_fit_a_square_wave, spectral_period_rows
 
 # (clock Hz, row time s, exposure s): stripe periods of 2.5 to 25 rows,
 # exposures from a quarter chip to 1.5 chips.
