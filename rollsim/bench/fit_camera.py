@@ -23,12 +23,12 @@ import functools
 import json
 import math
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, replace
 from typing import Sequence
 
 import numpy as np
 
+from rollsim.plumbing.parallel import process_pool
 from rollsim.plumbing.text_tables import format_table
 
 BASE_SCENE = "paper-geometric"
@@ -375,7 +375,7 @@ def run_bench(seed: int, cameras: int, workers: int = 1, max_height_px: int = 21
     drawn = draw_cameras(seed, cameras, max_height_px)
     rows = []
     if workers > 1:
-        with ProcessPoolExecutor(workers) as pool:
+        with process_pool(workers) as pool:
             for row in pool.map(functools.partial(run_camera, video=video, known=tuple(known)), drawn):
                 rows.append(row)
                 if progress:

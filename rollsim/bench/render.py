@@ -329,14 +329,13 @@ def in_memory_workers_frames_per_s(scene: Scene, frames_per_worker: int, workers
     barrier, after building the pipeline and a warm-up frame), and the rate
     is all their frames over the span from the first start to the last end.
     """
-    import multiprocessing
+    from rollsim.plumbing.parallel import pool_context, process_pool
 
-    from rollsim.plumbing.parallel import process_pool
-
-    barrier = multiprocessing.Barrier(workers, timeout=600)
+    context = pool_context()  # the barrier must come from the pool's own context
+    barrier = context.Barrier(workers, timeout=600)
     chunks = [list(range(w * frames_per_worker, (w + 1) * frames_per_worker)) for w in range(workers)]
     # A pool even for one worker: the figure is always that of worker processes.
-    with process_pool(workers, _init_in_memory_worker, (scene, barrier)) as pool:
+    with process_pool(workers, _init_in_memory_worker, (scene, barrier), context=context) as pool:
         spans = [future.result() for future in [pool.submit(_in_memory_chunk, chunk) for chunk in chunks]]
     start = min(s for s, _ in spans)
     end = max(e for _, e in spans)

@@ -10,13 +10,24 @@ started by :func:`process_pool`, so that its workers leave
 SIGINT and SIGTERM to the main process, die with it (even under SIGKILL), and
 are killed at once when the command stops early (a signal, an error, a full
 disk): no orphan keeps a core busy.
+
+Workers are forked where the process runs one thread (a command's usual
+case): they inherit its imports and loaded kernels and start at once. Where
+another thread runs (a notebook's kernel, a test runner's, a Dask client's
+loop), a fork copies the locks that thread holds, held for ever in the
+child, which may then hang on its first import or write; the workers are
+then forked from a fresh server process instead (``forkserver``, Python
+3.14's default on Linux), at the cost of their own imports
+(:func:`pool_context`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import itertools
+import multiprocessing
 import os
+import threading
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable, Iterable, Iterator, Optional, Sequence
 
@@ -37,6 +48,15 @@ def chunked(items: Sequence, size: int) -> Iterator[list]:
     """Consecutive slices of ``items`` of ``size`` (the last may be shorter)."""
     for first in range(0, len(items), size):
         yield list(items[first : first + size])
+
+
+def pool_context() -> multiprocessing.context.BaseContext:
+    """How this process should start workers now: ``fork`` alone on one thread, else ``forkserver``.
+
+    Objects the workers share (a :class:`multiprocessing.Barrier`, a queue)
+    must come from the same context as the pool.
+    """
+    return multiprocessing.get_context("fork" if threading.active_count() == 1 else "forkserver")
 
 
 def _init_worker(initializer: Optional[Callable], initargs: tuple) -> None:
@@ -67,14 +87,20 @@ def terminate(pool: ProcessPoolExecutor) -> None:
 
 
 @contextlib.contextmanager
-def process_pool(workers: int, initializer: Optional[Callable] = None, initargs: tuple = ()):
+def process_pool(workers: int, initializer: Optional[Callable] = None, initargs: tuple = (),
+                 context: Optional[multiprocessing.context.BaseContext] = None):
     """A :class:`ProcessPoolExecutor` whose workers never outlive the command.
 
-    On a normal exit the pool waits for its tasks; on any exception
+    Its workers start by ``context``, by default :func:`pool_context`'s
+    (``initializer`` and ``initargs`` must then pickle where another thread
+    runs). On a normal exit the pool waits for its tasks; on any exception
     (including :class:`rollsim.errors.Interrupted` and the closing of a
     generator that uses it) its workers are killed at once.
     """
-    pool = ProcessPoolExecutor(workers, initializer=_init_worker, initargs=(initializer, initargs))
+    if context is None:
+        context = pool_context()
+    pool = ProcessPoolExecutor(workers, mp_context=context, initializer=_init_worker,
+                               initargs=(initializer, initargs))
     try:
         yield pool
     except BaseException:
