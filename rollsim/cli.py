@@ -593,7 +593,8 @@ def cmd_fit_camera(args) -> int:
               else "video: its codec is not one rollsim renders (h264, hevc); fitted without it")
     missing = [name for name, e in est.items() if e.source == "not identified"]
     if missing:
-        print(f"not identified from these frames (the base scene's values, reasons in report.md): {', '.join(missing)}")
+        print("not identified from these frames (the base scene's values, or a bound; reasons in report.md): "
+              f"{', '.join(missing)}")
     print(f"row-profile correlation with the fit: mean {np.mean(comparison.correlations):.4f}; "
           f"wrote {out / 'camera.yaml'}, fit.json, report.md, profiles.png, frames.png")
     return EXIT_OK

@@ -4,6 +4,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 import rollsim.fit.refine as refine
 from rollsim.fit import compare, fit_camera
@@ -93,3 +95,53 @@ def test_a_smoothing_wider_than_the_scene_model_takes_is_rendered_at_its_bound(f
     p = dataclasses.replace(_parameters(fit), smoothing_rows=67.36)
     scene = fitted_scene(load_scene(BASE, []), frames[0].shape, hidden.link.clock_hz, fit.measured, p, [])
     assert scene.effects.isp_smoothing.sigma_rows_px == MAX_SIGMA_PX
+
+
+def _log_mismatch(points, a, b):
+    return sum(np.log((a + b * u) / v) ** 2 for u, v in points)
+
+
+def test_a_line_that_wants_no_read_noise_holds_it_at_the_bound_and_fits_the_gain():
+    # Shot noise alone, b = 2e-4: the line through the points meets the origin; a little
+    # more at the high level and its intercept goes negative.
+    from rollsim.fit.noise import BOUND_FRACTION, shot_noise_line
+
+    points = [(0.07, 2e-4 * 0.07), (0.9, 1.1 * 2e-4 * 0.9)]
+    a, b = shot_noise_line(points)
+    assert a == pytest.approx(BOUND_FRACTION * points[0][1])
+    assert b == pytest.approx(2e-4 * np.sqrt(1.1), rel=2e-3)
+    # b is the best gain with a held: no other does better at the two points.
+    for other in np.linspace(0.5 * b, 1.5 * b, 41):
+        assert _log_mismatch(points, a, b) <= _log_mismatch(points, a, other) + 1e-15
+
+
+@given(u0=st.floats(1e-3, 0.5), ratio=st.floats(1.5, 900.0), v0=st.floats(1e-8, 1e-2), grow=st.floats(1.0, 1e3))
+def test_the_shot_noise_line_is_positive_and_finite(u0, ratio, v0, grow):
+    from rollsim.fit.noise import shot_noise_line
+
+    u1 = min(1.0, u0 * ratio)
+    a, b = shot_noise_line([(u0, v0), (u1, v0 * grow)])
+    assert 0 < a < np.inf and 0 < b < np.inf
+
+
+def test_a_camera_whose_noise_is_shot_noise_alone_gets_its_gain():
+    # A hidden camera of the benchmark (seed 7's camera 22 at half its size:
+    # 2.8 e- of read noise, 2x binning, JPEG at 83): its frames' noise grows
+    # in proportion to the level, and the refinement's line through the two
+    # anchors crosses zero below the origin. Scaling both terms alike there
+    # left the ISO at a third of the camera's and the bright rows' noise 27 %
+    # under the frames'.
+    from rollsim.bench.fit_camera import draw_cameras, hidden_scene
+
+    cam = draw_cameras(7, 40)[22]
+    cam = dataclasses.replace(cam, width_px=536, height_px=402, led_diameter_px=cam.led_diameter_px / 2,
+                              led_x_px=cam.led_x_px / 2, led_y_px=cam.led_y_px / 2)
+    images, _ = render_frames(hidden_scene(cam), 6)
+    frames = [np.asarray(im) for im in images]
+    fit = fit_camera(frames, cam.clock_hz, load_scene(BASE, []))
+    assert fit.scene.camera.iso == pytest.approx(cam.iso, rel=0.2)
+    # The read noise is below what the frames resolve, and the fit says so.
+    assert fit.estimates["read_noise_e"].source == "not identified"
+    assert "below what the frames resolve" in fit.estimates["read_noise_e"].reason
+    ours, theirs = fit.checked().noise["temporal_led_bright"]
+    assert theirs == pytest.approx(ours, rel=0.1)

@@ -39,8 +39,7 @@ from rollsim.fit.binning import binned_if_nearer, detect_binning, nearest_offset
 from rollsim.fit.measure import LedRegion, TemporalNoise, column_pattern_std, find_led_region, level_noise_pairs, \
     temporal_noise
 from rollsim.fit.noise import MIN_LEVEL_SPAN, anchor_levels, gain_given_read, linear_level, noise_at, noise_gain, \
-    photon_transfer, \
-    tone_from_noise, tone_slope, unclipped
+    photon_transfer, shot_noise_line, tone_from_noise, tone_slope, unclipped
 from rollsim.fit.stripes import MAX_GAMMA, MIN_GAMMA, StripeFit, exposure_for_off_level, fit_residuals, fit_stripes, \
     levels_for_whole_periods, profile_extremes, reflected_levels, rows_the_model_holds, whole_periods_in
 from rollsim.scene.model import Scene
@@ -330,6 +329,9 @@ class Parameters:
     read_lin: float  # read noise
     row_lin: float | None  # row noise (None: the base scene's)
     col_lin: float | None  # column pattern (None: the base scene's)
+    # The read noise held at its bound, below what the frames resolve
+    # (rollsim.fit.noise.shot_noise_line).
+    read_held: bool = False
 
 
 @dataclass(frozen=True)
@@ -724,6 +726,7 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
     mine, theirs = matched_terms(target, rendered)
     period = target.stripes_period_rows
     a, b = p.read_lin**2, p.k_lin
+    read_held = False
     scaled = []
     for anchor in noise_anchors(target, p.gamma):
         rate = level_ratio(anchor_variance(target, anchor), anchor_variance(rendered, anchor))
@@ -733,7 +736,10 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
         (u0, v0), (u1, v1) = scaled
         b_new = (v1 - v0) / (u1 - u0)
         a_new = v0 - b_new * u0
-        if not (b_new > 0 and a_new > 0):  # the two levels disagree: scale both alike
+        if b_new > 0 and a_new <= 0:  # the noise grows in proportion to the level, or faster
+            a_new, b_new = shot_noise_line(scaled)
+            read_held = True
+        elif not (b_new > 0 and a_new > 0):  # a variance that falls with the level: scale both alike
             s = math.sqrt((v0 / (a + b * u0)) * (v1 / (a + b * u1)))
             a_new, b_new = a * s, b * s
     elif scaled and noise.gain_source == FRAMES:
@@ -762,4 +768,5 @@ def corrected(p: Parameters, noise: NoiseFit, target: Measured, rendered: Measur
         read_lin=math.sqrt(a_new),
         row_lin=None if p.row_lin is None else p.row_lin * level_ratio(target.row_noise, rendered.row_noise),
         col_lin=None if p.col_lin is None else p.col_lin * level_ratio(target.column_pattern, rendered.column_pattern),
+        read_held=read_held,
     )

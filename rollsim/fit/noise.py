@@ -34,6 +34,9 @@ CLIP_MARGIN = 8
 MIN_LEVEL_SPAN = 1.5
 # A point counts at an anchor within this fraction of its level (or 2 levels).
 ANCHOR_TOLERANCE = 0.15
+# The read noise's share of the lower anchor's variance where the frames
+# resolve none (shot_noise_line): too small to show in them.
+BOUND_FRACTION = 1e-3
 
 
 def linear_level(level, gamma: float) -> np.ndarray:
@@ -140,3 +143,32 @@ def gain_given_read(level_lin: float, variance_lin: float, read_e: float) -> flo
         return variance_lin / max(level_lin, 1e-12)
     r2 = read_e**2
     return (-level_lin + math.sqrt(level_lin**2 + 4.0 * r2 * variance_lin)) / (2.0 * r2)
+
+
+def shot_noise_line(points: list[tuple[float, float]]) -> tuple[float, float]:
+    """The photon-transfer line a + b·u nearest two points whose own line has no read noise (a ≤ 0).
+
+    Parameters
+    ----------
+    points : list of two (u, v)
+        Linear levels u > 0 (fractions of the ADC range) and the variances
+        v > 0 wanted there (linear).
+
+    Returns
+    -------
+    a, b : float
+        The read noise's variance and the gain (fraction of the range per
+        electron), both > 0.
+
+    Notes
+    -----
+    A line through the points with a ≤ 0 says that the variance grows at
+    least in proportion to the level: the read noise is below what the
+    frames resolve. a is then held at :data:`BOUND_FRACTION` of the lower
+    variance, and b is the one that minimises the squared log ratios at the
+    two points (what the refinement's noise mismatch sums): the geometric
+    mean of (v − a)/u.
+    """
+    (u0, v0), (u1, v1) = points
+    a = BOUND_FRACTION * min(v0, v1)
+    return a, math.sqrt(max(v0 - a, a) / u0 * max(v1 - a, a) / u1)

@@ -411,7 +411,7 @@ def refined(setting: Refinement, channel: str, target: Measured) -> CameraFit:
     # the linear levels stay (the scene's LED and ambient light follow the gain).
     for _ in range(NOISE_ROUNDS):
         trial = dataclasses.replace(params, **{name: getattr(corrected(params, noise, target, rendered), name)
-                                               for name in ("k_lin", "read_lin")})
+                                               for name in ("k_lin", "read_lin", "read_held")})
         _, trial, trial_scene, trial_notes, trial_rendered = rendered_trial(trial)
         if noise_mismatch(target, trial_rendered, trial.gamma) >= noise_mismatch(target, rendered, params.gamma):
             break
@@ -607,6 +607,17 @@ def jpeg_estimate(scene: Scene) -> Estimate:
                     "blocks are unclipped and not flat")
 
 
+def noise_sources(noise: NoiseFit, p: Parameters) -> dict[str, tuple[str, str | None]]:
+    """(source, reason) of the gain and of the read noise: the direct fit's, unless the refinement
+    held the read noise at its bound (:func:`rollsim.fit.noise.shot_noise_line`)."""
+    out = {"gain": (noise.gain_source, noise.reason if noise.gain_source != FRAMES else None),
+           "read": (noise.read_source, noise.reason if noise.read_source != FRAMES else None)}
+    if p.read_held:
+        out["read"] = (NOT_IDENTIFIED, "the noise grows in proportion to the level: the read noise is below what "
+                                       "the frames resolve (rendered at a thousandth of the lower level's variance)")
+    return out
+
+
 def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: Scene,
               choices: Sequence[ExposureChoice], known: Known | None = None) -> dict:
     """Every parameter of the fitted scene with its uncertainty and source; ``choices``
@@ -640,6 +651,7 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
         tone = Estimate(p.gamma, unc.get("gamma"), "", tone_how + ("told by the noise against the level (photon "
                                                                    "transfer)" if m.stripes.gamma_given
                                                                    else "from the edges"))
+    sources = noise_sources(noise, p)
     out = {
         "row_time_us": Estimate(t_row_us, m.row_time_sd_s * 1e6, "us", "stripe period of the square wave"),
         "exposure_us": exposure,
@@ -647,12 +659,10 @@ def estimates(m: Measured, p: Parameters, noise: NoiseFit, scene: Scene, base: S
                                        "sigma of the ISP's vertical Gaussian, from the edges' shape"),
         "tone_gamma": tone,
         "gain_dn_per_e": Estimate(cam.gain_dn_per_e_at_iso, None, "DN/e", "slope of the photon-transfer line "
-                                  "(or the noise at one level), refined by rendering", noise.gain_source,
-                                  noise.reason if noise.gain_source != FRAMES else None),
-        "iso": Estimate(cam.iso, None, "", "the gain over the preset's", noise.gain_source,
-                        noise.reason if noise.gain_source != FRAMES else None),
+                                  "(or the noise at one level), refined by rendering", *sources["gain"]),
+        "iso": Estimate(cam.iso, None, "", "the gain over the preset's", *sources["gain"]),
         "read_noise_e": Estimate(cam.read_noise_e, None, "e-", "intercept of the photon-transfer line",
-                                 noise.read_source, noise.reason if noise.read_source != FRAMES else None),
+                                 *sources["read"]),
         "on_level": Estimate(p.on_lin, None, "full scales", "the LED's linear ON level at its centre (stripe fit; "
                              "above 1 when saturated), refined by rendering"),
         "off_level": Estimate(p.off_lin, None, "full scales", "the OFF rows' linear level, refined by rendering"),

@@ -95,7 +95,8 @@ def report_md(fit: CameraFit, comparison: Comparison, sources: list[str]) -> str
              "uncertainty and source in `fit.json`.",
              "", "## Estimates", "",
              "Source: `frames` (fitted to them), `base scene` (what frames of a square wave never show), "
-             "`not identified` (what these frames do not show; the base scene's value is used) or `given` "
+             "`not identified` (what these frames do not show; the base scene's value is used, or the bound "
+             "the reason gives) or `given` "
              "(told, and held: `--exposure-us`, `--tone`, `--binning-rows`).", "",
              "| quantity | value | ± 1σ | unit | source | how, or why not |", "|---|---|---|---|---|---|"]
     for name, e in fit.estimates.items():
