@@ -28,6 +28,7 @@ from rollsim.fit.camera import BASE, FRAMES, GIVEN, HELD_AS_GIVEN, NOT_IDENTIFIE
     exposure_alternatives_rows, exposure_choices, given_exposure_choice, level_ratio, levels_match, matched_terms, \
     measure, noise_anchors
 from rollsim.fit.fitted_scene import fitted_scene, led_geometry
+from rollsim.fit.noise import BOUND_FRACTION
 from rollsim.scene.model import Scene
 
 if TYPE_CHECKING:  # the check renders fits, and imports this module
@@ -614,7 +615,8 @@ def noise_sources(noise: NoiseFit, p: Parameters) -> dict[str, tuple[str, str | 
            "read": (noise.read_source, noise.reason if noise.read_source != FRAMES else None)}
     if p.read_held:
         out["read"] = (NOT_IDENTIFIED, "the noise grows in proportion to the level: the read noise is below what "
-                                       "the frames resolve (rendered at a thousandth of the lower level's variance)")
+                                       f"the frames resolve (rendered at {BOUND_FRACTION:g} of the lower level's "
+                                       "variance)")
     return out
 
 
